@@ -1,0 +1,49 @@
+# Two commands for users: `make run` (the main job) and `make test` (every test).
+# Both set the workspace up first; setup is idempotent and quick when nothing changed.
+SHELL := /bin/bash
+.SHELLFLAGS := -o pipefail -ec
+PYTHON ?= python3
+VENV := .venv
+ENV := ./env.sh
+SETUP_STAMP := $(VENV)/.requirements-stamp
+BUILD_STAMP := install/.build-stamp
+PKG_FILES := $(shell find src -name package.xml -o -name setup.py -o -name setup.cfg 2>/dev/null)
+
+.PHONY: setup build test lint colcon-test system-test run clean
+
+setup: $(SETUP_STAMP) $(BUILD_STAMP) $(ENV)
+
+$(SETUP_STAMP): requirements.txt constraints.txt
+	@$(PYTHON) -c 'import sys; sys.exit(0 if sys.version_info >= (3, 11) else "Python 3.11+ is needed, found " + sys.version)'
+	test -x $(VENV)/bin/python || $(PYTHON) -m venv $(VENV)
+	$(VENV)/bin/python -m pip install --quiet --disable-pip-version-check -r requirements.txt -c constraints.txt
+	touch $@
+
+$(ENV): scripts/make_env.sh
+	bash scripts/make_env.sh > $@.tmp && mv $@.tmp $@
+
+# colcon with --symlink-install: edits to Python sources need no rebuild;
+# new entry points or package files do (tracked by PKG_FILES).
+$(BUILD_STAMP): $(SETUP_STAMP) $(PKG_FILES) colcon.meta $(ENV)
+	source $(ENV) && colcon build --symlink-install --event-handlers console_stderr- 2>&1 | tail -n 3
+	touch $@
+
+build: setup
+
+lint: setup
+	$(VENV)/bin/ruff check src test
+
+colcon-test: setup
+	source $(ENV) && colcon test --event-handlers console_direct- --return-code-on-test-failure ; rc=$$? ; \
+	  colcon test-result --verbose ; rc2=$$? ; [ $$rc -eq 0 ] && [ $$rc2 -eq 0 ]
+
+system-test: setup
+	source $(ENV) && python -m pytest -q test
+
+test: lint colcon-test system-test
+
+run: setup
+	source $(ENV) && stns_bringup --config config/default.yaml --out runs/default
+
+clean:
+	rm -rf build install log $(ENV)

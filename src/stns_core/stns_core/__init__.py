@@ -1,0 +1,1 @@
+"""The STNS learner: situations, classifier, categorical learning, STN, IPRL/PIA planners, agent, save/load."""

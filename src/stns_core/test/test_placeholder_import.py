@@ -1,0 +1,3 @@
+def test_import():
+    import stns_core
+    assert stns_core.__doc__

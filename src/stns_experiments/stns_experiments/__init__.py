@@ -1,0 +1,1 @@
+"""Headless reproduction of the STNS paper's experiments with baselines, plots and reports."""
