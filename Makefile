@@ -13,14 +13,22 @@ PKG_FILES := $(shell find src -name package.xml -o -name setup.py -o -name setup
 
 setup: $(SETUP_STAMP) $(BUILD_STAMP) $(ENV)
 
+ifeq ($(STNS_SYSTEM_ROS),1)
+# docker/: ROS from /opt/ros/jazzy, the other packages installed by the Dockerfile.
+RUFF := ruff
+$(SETUP_STAMP):
+	mkdir -p $(VENV) && touch $@
+else
+RUFF := $(VENV)/bin/ruff
 $(SETUP_STAMP): requirements.txt constraints.txt
 	@$(PYTHON) -c 'import sys; sys.exit(0 if sys.version_info >= (3, 11) else "Python 3.11+ is needed, found " + sys.version)'
 	test -x $(VENV)/bin/python || $(PYTHON) -m venv $(VENV)
 	$(VENV)/bin/python -m pip install --quiet --disable-pip-version-check -r requirements.txt -c constraints.txt
 	touch $@
+endif
 
 $(ENV): scripts/make_env.sh
-	bash scripts/make_env.sh > $@.tmp && mv $@.tmp $@
+	STNS_SYSTEM_ROS=$(STNS_SYSTEM_ROS) bash scripts/make_env.sh > $@.tmp && mv $@.tmp $@
 
 # colcon with --symlink-install: edits to Python sources need no rebuild;
 # new entry points or package files do (tracked by PKG_FILES).
@@ -31,7 +39,7 @@ $(BUILD_STAMP): $(SETUP_STAMP) $(PKG_FILES) colcon.meta $(ENV)
 build: setup
 
 lint: setup
-	$(VENV)/bin/ruff check src test
+	$(RUFF) check src test
 
 colcon-test: setup
 	source $(ENV) && colcon test --event-handlers console_direct- --return-code-on-test-failure ; rc=$$? ; \
