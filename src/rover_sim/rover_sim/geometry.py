@@ -1,0 +1,99 @@
+"""Plane geometry of the world in u: the rover rectangle, penetration depths, poses."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from rover_sim.config import Box, WorldConfig
+from rover_sim.errors import RoverSimError
+
+Pose = tuple[float, float, float]
+"""(x, y, theta): centre in u, heading in radians (ccw from the room's x axis)."""
+
+_CORNER_SIGNS = np.array([[1.0, 1.0], [-1.0, 1.0], [-1.0, -1.0], [1.0, -1.0]])
+
+
+def wrap_angle(a: float) -> float:
+    """Angle wrapped into [-pi, pi)."""
+    return (a + math.pi) % (2.0 * math.pi) - math.pi
+
+
+def rover_corners(pose: Pose, length: float, width: float) -> np.ndarray:
+    """The four corners (4 x 2, u) of the rover footprint at `pose`."""
+    x, y, th = pose
+    c, s = math.cos(th), math.sin(th)
+    local = _CORNER_SIGNS * (length / 2.0, width / 2.0)
+    rot = np.array([[c, -s], [s, c]])
+    return local @ rot.T + (x, y)
+
+
+def box_overlap_depth(corners: np.ndarray, heading: float, box: Box) -> float:
+    """Separating-axis overlap of the rover rectangle and an axis-aligned box, u.
+
+    0 when they do not overlap, else the smallest overlap over the four axes (how far
+    the rover would have to move to get clear).
+    """
+    xmin, ymin, xmax, ymax = box.bounds
+    box_pts = np.array([[xmin, ymin], [xmax, ymin], [xmax, ymax], [xmin, ymax]])
+    c, s = math.cos(heading), math.sin(heading)
+    axes = np.array([[1.0, 0.0], [0.0, 1.0], [c, s], [-s, c]])
+    pa = corners @ axes.T
+    pb = box_pts @ axes.T
+    overlap = np.minimum(pa.max(axis=0), pb.max(axis=0)) - np.maximum(pa.min(axis=0), pb.min(axis=0))
+    m = float(overlap.min())
+    return m if m > 0.0 else 0.0
+
+
+def penetration_depths(pose: Pose, config: WorldConfig) -> np.ndarray:
+    """How deep the rover footprint is in each wall (W, E, S, N) and each obstacle, u."""
+    corners = rover_corners(pose, config.rover_length, config.rover_width)
+    lo = corners.min(axis=0)
+    hi = corners.max(axis=0)
+    size = config.room_size
+    depths = [max(0.0, -lo[0]), max(0.0, hi[0] - size), max(0.0, -lo[1]), max(0.0, hi[1] - size)]
+    for box in config.obstacles:
+        depths.append(box_overlap_depth(corners, pose[2], box))
+    return np.array(depths)
+
+
+def pose_is_free(pose: Pose, config: WorldConfig, margin: float = 0.0) -> bool:
+    """True when the whole rover lies at least `margin` inside walls and off obstacles."""
+    corners = rover_corners(pose, config.rover_length, config.rover_width)
+    if corners.min() < margin or corners.max() > config.room_size - margin:
+        return False
+    for box in config.obstacles:
+        grown = Box(box.cx, box.cy, box.sx + 2 * margin, box.sy + 2 * margin)
+        if box_overlap_depth(corners, pose[2], grown) > 0.0:
+            return False
+    return True
+
+
+def sample_goal(rng: np.random.Generator, config: WorldConfig) -> tuple[float, float]:
+    """The trial's goal: the fixed one, else uniform in the central goal_region square."""
+    if config.goal is not None:
+        return config.goal
+    lo = (config.room_size - config.goal_region) / 2.0
+    gx, gy = rng.uniform(lo, lo + config.goal_region, size=2)
+    return float(gx), float(gy)
+
+
+def sample_pose(
+    rng: np.random.Generator,
+    config: WorldConfig,
+    goal: tuple[float, float],
+    max_tries: int = 10000,
+) -> Pose:
+    """A uniformly random free pose (whole rover in the room, off obstacles) whose centre
+    is outside the goal, with a uniformly random heading."""
+    half = min(config.rover_length, config.rover_width) / 2.0
+    for _ in range(max_tries):
+        x, y = rng.uniform(half, config.room_size - half, size=2)
+        th = float(rng.uniform(-math.pi, math.pi))
+        pose = (float(x), float(y), th)
+        if math.hypot(x - goal[0], y - goal[1]) <= config.goal_radius:
+            continue
+        if pose_is_free(pose, config, config.start_margin):
+            return pose
+    raise RoverSimError(f"no free start pose found in {max_tries} draws for config {config!r}")

@@ -1,0 +1,105 @@
+"""Top-down pictures of the world (PNG via matplotlib's Agg canvas, no pyplot state)."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from pathlib import Path
+
+import numpy as np
+from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.figure import Figure
+from matplotlib.patches import Circle, Polygon, Rectangle, Wedge
+
+from rover_sim.config import WorldConfig
+from rover_sim.errors import RoverSimError
+from rover_sim.geometry import rover_corners
+from rover_sim.sensors import N_SECTORS, SECTOR_NAMES, sector_bounds
+from rover_sim.world import RoverWorld
+
+
+def render_topdown(
+    world_or_config: RoverWorld | WorldConfig,
+    trajectory: Sequence[Sequence[float]] | np.ndarray | None,
+    path: str | Path,
+    *,
+    goal: tuple[float, float] | None = None,
+    pose: tuple[float, float, float] | None = None,
+    show_sectors: bool = False,
+    title: str | None = None,
+    dpi: int = 100,
+) -> Path:
+    """Draw room, obstacles, goal, rover and trajectory to a PNG at `path`.
+
+    `trajectory` is a sequence of (x, y) or (x, y, theta) in u (may be empty or None).
+    From a `RoverWorld` the goal and rover pose default to the world's; from a
+    `WorldConfig` to the config's fixed goal (if any) and the trajectory's last pose.
+    `show_sectors` draws the six range-sensor sectors around the rover (with the
+    readings when a world is given). Returns the path written.
+    """
+    if isinstance(world_or_config, RoverWorld):
+        world: RoverWorld | None = world_or_config
+        config = world_or_config.config
+    elif isinstance(world_or_config, WorldConfig):
+        world, config = None, world_or_config
+    else:
+        raise RoverSimError(f"render_topdown needs a RoverWorld or WorldConfig, got {world_or_config!r}")
+    traj = np.empty((0, 2)) if trajectory is None else np.asarray(trajectory, dtype=float)
+    if traj.size and (traj.ndim != 2 or traj.shape[1] not in (2, 3)):
+        raise RoverSimError(f"trajectory must be N x 2 or N x 3, got shape {traj.shape!r}")
+    if goal is None:
+        goal = world.goal if world is not None else config.goal
+    if pose is None:
+        if world is not None:
+            pose = world.pose
+        elif traj.size and traj.shape[1] == 3:
+            pose = tuple(traj[-1])
+
+    size = config.room_size
+    fig = Figure(figsize=(6, 6), dpi=dpi)
+    FigureCanvasAgg(fig)
+    ax = fig.add_subplot(1, 1, 1)
+    ax.add_patch(Rectangle((0, 0), size, size, fill=False, lw=3, ec="black"))
+    if config.goal is None:
+        lo = (size - config.goal_region) / 2
+        ax.add_patch(
+            Rectangle((lo, lo), config.goal_region, config.goal_region, fill=False, ls=":",
+                      ec="tab:green", lw=1, label=f"goal region {config.goal_region:g}^2")
+        )
+    for i, box in enumerate(config.obstacles):
+        xmin, ymin, _, _ = box.bounds
+        ax.add_patch(Rectangle((xmin, ymin), box.sx, box.sy, fc="dimgray", ec="black",
+                               label="obstacle" if i == 0 else None))
+    if goal is not None:
+        ax.add_patch(Circle(goal, config.goal_radius, fc="tab:green", alpha=0.6,
+                            label=f"goal (r={config.goal_radius:g})"))
+    if traj.size:
+        ax.plot(traj[:, 0], traj[:, 1], "-", color="tab:blue", lw=1, label="trajectory")
+    if pose is not None:
+        x, y, th = pose
+        if show_sectors:
+            ranges = world.range_readings() if world is not None else None
+            for k in range(N_SECTORS):
+                a0, a1 = sector_bounds(k)
+                r = 30.0 if ranges is None else float(ranges[k])
+                ax.add_patch(Wedge((x, y), r, math.degrees(th + a0), math.degrees(th + a1),
+                                   fc=f"C{k}", alpha=0.25, ec=f"C{k}"))
+                mid = th + (a0 + a1) / 2
+                label = SECTOR_NAMES[k] if ranges is None else f"{k}: {r:.1f}"
+                ax.text(x + 0.6 * r * math.cos(mid), y + 0.6 * r * math.sin(mid), label,
+                        ha="center", va="center", fontsize=8)
+        corners = rover_corners(pose, config.rover_length, config.rover_width)
+        ax.add_patch(Polygon(corners, closed=True, fc="tab:orange", ec="black", label="rover"))
+        ax.annotate("", xy=(x + 10 * math.cos(th), y + 10 * math.sin(th)), xytext=(x, y),
+                    arrowprops={"arrowstyle": "->", "lw": 1.5})
+    ax.set_xlim(-5, size + 5)
+    ax.set_ylim(-5, size + 5)
+    ax.set_aspect("equal")
+    ax.set_xlabel("x [u]  (1 u = 1/16 m)")
+    ax.set_ylabel("y [u]")
+    ax.set_title(title or f"{config.task}: room {size:g} x {size:g} u")
+    ax.legend(loc="upper left", fontsize=7, framealpha=0.8)
+    out = Path(path)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(out)
+    return out

@@ -1,0 +1,112 @@
+"""Bad input raises RoverSimError naming the value."""
+
+import pytest
+
+from rover_sim import Action, Box, RoverSimError, RoverWorld, WorldConfig
+
+
+@pytest.fixture(scope="module")
+def world():
+    w = RoverWorld("exp1", seed=0)
+    w.reset()
+    yield w
+    w.close()
+
+
+def test_root_exception_is_value_error():
+    assert issubclass(RoverSimError, ValueError)
+
+
+@pytest.mark.parametrize(
+    ("v", "w", "match"),
+    [(float("nan"), 0.0, "nan"), (0.0, float("inf"), "inf"), ("fast", 0.0, "'fast'"),
+     (True, 0.0, "True")],
+)
+def test_non_finite_commands(world, v, w, match):
+    with pytest.raises(RoverSimError, match=match):
+        world.step_velocity(v, w)
+
+
+@pytest.mark.parametrize("action", [4, -1, "left", 2.5, None])
+def test_unknown_actions(world, action):
+    with pytest.raises(RoverSimError, match="unknown action"):
+        world.step(action)
+    with pytest.raises(RoverSimError, match="unknown action"):
+        world.run_behaviour(action)
+
+
+def test_actions_enum():
+    assert len(Action) == 4
+    assert [int(a) for a in Action] == [0, 1, 2, 3]
+
+
+@pytest.mark.parametrize("name", ["exp2", "", "EXP1"])
+def test_unknown_task_names(name):
+    with pytest.raises(RoverSimError, match=f"unknown task '{name}'"):
+        WorldConfig.preset(name)
+    with pytest.raises(RoverSimError, match=f"unknown task '{name}'"):
+        RoverWorld(name)
+
+
+@pytest.mark.parametrize(
+    ("field", "value", "match"),
+    [
+        ("room_size", -100.0, "room_size must be positive, got -100.0"),
+        ("rover_length", 0.0, "rover_length must be positive, got 0.0"),
+        ("goal_radius", -5, "goal_radius must be positive, got -5"),
+        ("tick_seconds", float("nan"), "tick_seconds must be finite, got nan"),
+        ("physics_substeps", 0, "physics_substeps must be an integer >= 1, got 0"),
+        ("post_collision", "bounce", "unknown post_collision rule 'bounce'"),
+        ("left_wheel_gain", 2.5, r"left_wheel_gain must be in \(0, 2\], got 2.5"),
+        ("left_wheel_gain", 0.0, r"left_wheel_gain must be in \(0, 2\], got 0.0"),
+        ("goal_sensor_noise_std", -1.0, "goal_sensor_noise_std must be >= 0, got -1.0"),
+        ("goal", (150.0, 50.0), r"goal must lie inside the room, got \(150.0, 50.0\)"),
+        ("goal_region", 120.0, "goal_region must fit in the room"),
+    ],
+)
+def test_bad_config_values(field, value, match):
+    with pytest.raises(RoverSimError, match=match):
+        WorldConfig.preset("exp1", **{field: value})
+
+
+def test_bad_boxes_and_unknown_fields():
+    with pytest.raises(RoverSimError, match="Box sizes must be positive, got sx=-1"):
+        Box(10.0, 10.0, -1.0, 5.0)
+    with pytest.raises(RoverSimError, match="unknown WorldConfig field"):
+        WorldConfig.preset("exp1", wheel_size=3)
+    with pytest.raises(RoverSimError, match="unknown WorldConfig field"):
+        WorldConfig.preset("exp1").replace(colour="red")
+
+
+@pytest.mark.parametrize(
+    ("name", "value", "match"),
+    [
+        ("left_wheel_gain", 2.01, "got 2.01"),
+        ("left_wheel_gain", -0.5, "got -0.5"),
+        ("left_wheel_gain", float("nan"), "got nan"),
+        ("goal_sensor_rotation_deg", float("inf"), "got inf"),
+        ("range_sensor_noise_std", -0.1, "got -0.1"),
+        ("right_wheel_gain", 1.0, "unknown fault 'right_wheel_gain'"),
+    ],
+)
+def test_bad_faults(world, name, value, match):
+    before = world.faults
+    with pytest.raises(RoverSimError, match=match):
+        world.set_fault(name, value)
+    assert world.faults == before
+
+
+def test_bad_max_ticks(world):
+    with pytest.raises(RoverSimError, match="max_ticks must be an integer >= 1, got 0"):
+        world.run_behaviour(Action.FORWARD, max_ticks=0)
+
+
+def test_config_is_frozen():
+    cfg = WorldConfig.preset("exp1")
+    with pytest.raises(AttributeError):
+        cfg.room_size = 50.0
+
+
+def test_step_before_reset():
+    with RoverWorld("exp1", seed=0) as w, pytest.raises(RoverSimError, match="reset"):
+        w.step(Action.FORWARD)
