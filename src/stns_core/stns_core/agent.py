@@ -1,0 +1,252 @@
+"""The STNS agent: the paper's behaviour-step loop run at control-tick level.
+
+``step(obs, reward, terminated)`` is called once per control tick (docs/INTERFACES.md). It
+decides whether the running behaviour stops (a non-zero reward; the target situation
+reached; for the random behaviour under the default reading, a change of the classified
+situation), closes the behaviour step into a history record, learns (categorical learning,
+STN), plans (IPRL or PIA) and returns the next action. The same object serves the headless
+experiments and the ROS agent node.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from os import PathLike
+from typing import Any
+
+import numpy as np
+
+from .categorical import GOAL, Learner
+from .config import StnsConfig
+from .errors import StnsDimensionError, StnsInputError
+from .history import ARRIVAL
+from .records import StepRecord
+
+PlanElems = list[tuple[int, int]]
+
+
+@dataclass
+class _Running:
+    """The behaviour step under way."""
+
+    x0: np.ndarray
+    s0: int
+    b: int
+    target: int | None  # situation id, GOAL, or None for the random behaviour
+    planned: bool
+    reward: float = 0.0
+    ticks: int = 0
+    la_count: int = -1  # look-ahead ticks spent inside the target (-1: not yet reached)
+    la_x: np.ndarray | None = None
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "x0": [float(v) for v in self.x0], "s0": self.s0, "b": self.b,
+            "target": self.target, "planned": self.planned, "reward": self.reward,
+            "ticks": self.ticks, "la_count": self.la_count,
+            "la_x": None if self.la_x is None else [float(v) for v in self.la_x],
+        }
+
+    @classmethod
+    def from_dict(cls, d: dict[str, Any]) -> _Running:
+        d = dict(d)
+        d["x0"] = np.array(d["x0"], dtype=float)
+        if d["la_x"] is not None:
+            d["la_x"] = np.array(d["la_x"], dtype=float)
+        return cls(**d)
+
+
+class StnsAgent:
+    """STNS learner + controller. See docs/INTERFACES.md for the tick protocol."""
+
+    def __init__(self, config: StnsConfig, obs_dim: int, n_behaviours: int) -> None:
+        if not isinstance(config, StnsConfig):
+            raise StnsInputError(f"config must be a StnsConfig, got {type(config).__name__}")
+        for name, value, lowest in (("obs_dim", obs_dim, 1), ("n_behaviours", n_behaviours, 1)):
+            if isinstance(value, bool) or not isinstance(value, int | np.integer):
+                raise StnsInputError(f"{name} must be an int, got {value!r}")
+            if value < lowest:
+                raise StnsInputError(f"{name} must be >= {lowest}, got {value!r}")
+        self.config = config
+        self.obs_dim = int(obs_dim)
+        self.n_behaviours = int(n_behaviours)
+        self.rng = np.random.default_rng(config.seed)
+        self.learner = Learner(config, self.obs_dim, self.n_behaviours)
+        self.trial = 0
+        self._run: _Running | None = None
+        self._plan: PlanElems = []  # elements after the running one
+        self._prev_reached: int | None = None  # target reached by the last planned step
+        self._pending: list[StepRecord] = []
+        self._current = 0  # situation of the last observation
+        self._plan_utility = 0.0
+
+    # -- public API -------------------------------------------------------------------
+    @property
+    def behaviour_steps(self) -> int:
+        """Records so far (behaviour steps + goal arrivals)."""
+        return int(self.learner.hist.total)
+
+    def classify(self, obs) -> int:
+        """Situation id of an observation (0 = margin space)."""
+        return self.learner.classify(self._check_obs(obs))
+
+    def pop_records(self) -> list[StepRecord]:
+        """StepRecords finished since the last call."""
+        out, self._pending = self._pending, []
+        return out
+
+    def step(self, obs, reward: float, terminated: bool) -> int | None:
+        """One control tick: the observation after the last action, its reward, goal flag."""
+        x = self._check_obs(obs)
+        r = self._check_reward(reward)
+        run = self._run
+        if run is None:
+            if terminated:
+                self._arrival(x)
+                return None
+            return self._begin(x, continuing=False)
+        run.reward += r
+        run.ticks += 1
+        if terminated:
+            self._close(x, self.learner.classify(x), terminal=True)
+            self._arrival(x)
+            return None
+        s_now = self.learner.classify(x)
+        self._current = s_now
+        end = self._stop(run, x, s_now, r)
+        if end is None:
+            return run.b
+        self._close(end[0], end[1], terminal=False)
+        return self._begin(x, continuing=True)
+
+    def reset_trial(self) -> None:
+        """Drop the running behaviour without recording it (a trial cut short by the caller)."""
+        self._run = None
+        self._plan = []
+        self._prev_reached = None
+
+    def explain(self, fresh_utilities: bool = True) -> dict[str, Any]:
+        from .explain import explain
+        return explain(self, fresh_utilities)
+
+    def save(self, path: str | PathLike) -> None:
+        from .state_io import save_agent
+        save_agent(self, path)
+
+    @classmethod
+    def load(cls, path: str | PathLike) -> StnsAgent:
+        from .state_io import load_agent
+        return load_agent(cls, path)
+
+    # -- validation -------------------------------------------------------------------
+    def _check_obs(self, obs) -> np.ndarray:
+        try:
+            x = np.array(obs, dtype=float)
+        except (TypeError, ValueError) as exc:
+            raise StnsInputError(f"observation is not numeric: {obs!r}") from exc
+        if x.shape != (self.obs_dim,):
+            raise StnsDimensionError(
+                f"observation shape {x.shape} does not match obs_dim {self.obs_dim}: {obs!r}")
+        if not np.all(np.isfinite(x)):
+            raise StnsInputError(f"observation has non-finite values: {x.tolist()!r}")
+        return x
+
+    @staticmethod
+    def _check_reward(reward) -> float:
+        if isinstance(reward, bool):
+            raise StnsInputError(f"reward must be a number, got {reward!r}")
+        try:
+            r = float(reward)
+        except (TypeError, ValueError) as exc:
+            raise StnsInputError(f"reward must be a number, got {reward!r}") from exc
+        if not math.isfinite(r):
+            raise StnsInputError(f"reward must be finite, got {reward!r}")
+        return r
+
+    # -- the behaviour-step loop ------------------------------------------------------
+    def _stop(self, run: _Running, x, s_now: int, r: float):
+        """None to go on, else (end input, end situation) of the behaviour step."""
+        cfg = self.config
+        if r != 0.0:
+            return x, s_now
+        if run.planned and run.target is not None and run.target != GOAL:
+            lookahead = cfg.target_lookahead_ticks
+            if run.la_count >= 0:  # inside the target, looking ahead
+                if s_now != run.target:
+                    return run.la_x, run.target  # ends where it last was in the target
+                run.la_count += 1
+                run.la_x = x
+                if run.la_count >= lookahead:
+                    return x, s_now
+            elif s_now == run.target:
+                if lookahead == 0:
+                    return x, s_now
+                run.la_count = 0
+                run.la_x = x
+        elif (not run.planned and cfg.random_stop == "situation_change"
+              and s_now != run.s0):
+            return x, s_now
+        if cfg.max_behaviour_ticks and run.ticks >= cfg.max_behaviour_ticks:
+            return x, s_now
+        return None
+
+    def _kind(self, sid: int) -> str:
+        sit = self.learner.by_id.get(sid)
+        return "0" if sit is None else sit.kind
+
+    def _close(self, x_end, s_end: int, terminal: bool) -> None:
+        run = self._run
+        assert run is not None
+        success: bool | None = None
+        if run.planned:
+            success = bool(terminal) if run.target == GOAL else s_end == run.target
+        self._prev_reached = run.target if (run.planned and success and not terminal) else None
+        rec = StepRecord(
+            index=self.behaviour_steps, x=run.x0.copy(), situation=run.s0,
+            kind=self._kind(run.s0), behaviour=run.b,
+            target=None if run.target == GOAL else run.target, planned=run.planned,
+            reward=float(run.reward), next_situation=int(s_end), success=success,
+            ticks=run.ticks, arrival=False, trial=self.trial)
+        self._pending.append(rec)
+        self._run = None
+        self.learner.add_record(run.x0, run.s0, run.b, run.reward, np.array(x_end, dtype=float),
+                                int(s_end), bool(terminal))
+
+    def _arrival(self, x) -> None:
+        s = self.learner.classify(x)
+        self._current = s
+        rec = StepRecord(
+            index=self.behaviour_steps, x=x.copy(), situation=s, kind=self._kind(s),
+            behaviour=None, target=None, planned=False, reward=0.0, next_situation=None,
+            success=None, ticks=0, arrival=True, trial=self.trial)
+        self._pending.append(rec)
+        self.learner.add_record(x, s, ARRIVAL, 0.0, x, s, True)
+        self.trial += 1
+        self._run = None
+        self._plan = []
+        self._prev_reached = None
+
+    def _plan_alive(self) -> bool:
+        ids = self.learner.by_id
+        return all(d in ids or d == GOAL or d == 0 for _, d in self._plan)
+
+    def _begin(self, x: np.ndarray, continuing: bool) -> int:
+        s = self.learner.classify(x)
+        self._current = s
+        if (continuing and self._plan and self._prev_reached is not None
+                and s == self._prev_reached and self._plan_alive()):
+            b, d = self._plan.pop(0)
+            planned = True
+        else:
+            u, plan = self.learner.plan(s)
+            self._plan_utility = u
+            if u > 0.0 and plan:
+                (b, d), self._plan = plan[0], plan[1:]
+                planned = True
+            else:
+                b, d, planned = int(self.rng.integers(self.n_behaviours)), None, False
+                self._plan = []
+        self._run = _Running(x0=x.copy(), s0=s, b=int(b), target=d, planned=planned)
+        return int(b)
+

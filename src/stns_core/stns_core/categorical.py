@@ -1,0 +1,359 @@
+"""Categorical learning (paper section 5.3) with the history and the STN it rebuilds.
+
+Extraction of R- and T-situations and the five maintenance operations:
+1. populations of positive / negative instances, every behaviour step (``add_record``);
+2. boundary adjustment (``_refit``), every ``adjust_interval`` steps or every step;
+3. re-ordering by utility (``_periodic``), every ``adjust_interval`` steps;
+4. validity check, recycling and the five elimination cases (``_validity``), every step;
+5. elimination of situations with negative utility (``_periodic``).
+"""
+
+from __future__ import annotations
+
+from collections import deque
+from typing import Any
+
+import numpy as np
+
+from .classifier import MARGIN, Classifier
+from .config import StnsConfig
+from .history import History
+from .planning import Iprl, Pia
+from .situation import R_KIND, T_KIND, Situation
+from .stn import Stn
+
+GOAL = -1  # target id of a plan element whose result is the goal reward
+
+
+class Learner:
+    """History, situations in discrimination order, STN and planner of one agent."""
+
+    def __init__(self, cfg: StnsConfig, dim: int, n_behaviours: int) -> None:
+        self.cfg = cfg
+        self.dim = dim
+        self.n_behaviours = n_behaviours
+        self.hist = History(cfg.history_size, dim)
+        self.order: list[Situation] = []
+        self.by_id: dict[int, Situation] = {}
+        self.next_id = 1
+        self.classifier = Classifier(dim)
+        self.classifier.order = self.order  # the same list: re-ordering happens in place
+        self.events: deque[dict[str, Any]] = deque(maxlen=cfg.event_log_size)
+        self.event_count = 0
+        self.structure_version = 0  # bumps on extraction / elimination / redefinition / order
+        self._version = 0  # bumps on any change of history or labels
+        self._lut = np.zeros(1, dtype=np.int64)
+        self._lut_version = -1
+        self._stn: Stn | None = None
+        self._stn_version = -1
+        self._planner: Iprl | Pia | None = None
+        self._planner_version = -1
+
+    # -- classification ---------------------------------------------------------------
+    def classify(self, x: np.ndarray) -> int:
+        return self.classifier.classify(x, self.hist.x)
+
+    def classify_batch(self, xs: np.ndarray) -> np.ndarray:
+        return self.classifier.classify_batch(xs, self.hist.x)
+
+    # -- dense node indices, STN, planner ---------------------------------------------
+    def lut(self) -> np.ndarray:
+        """Situation id -> STN node (0 = margin; eliminated ids map to 0)."""
+        if self._lut_version != self.structure_version or len(self._lut) < self.next_id:
+            lut = np.zeros(self.next_id, dtype=np.int64)
+            for k, sit in enumerate(self.order):
+                lut[sit.id] = k + 1
+            self._lut = lut
+            self._lut_version = self.structure_version
+        return self._lut
+
+    def node_to_id(self, node: int) -> int:
+        if node == 0:
+            return MARGIN
+        if node == len(self.order) + 1:
+            return GOAL
+        return self.order[node - 1].id
+
+    def stn(self) -> Stn:
+        if self._stn_version != self._version or self._stn is None:
+            h = self.hist
+            sel = h.valid & (h.b >= 0)
+            lut = self.lut()
+            n_nodes = len(self.order) + 2
+            s = lut[h.s[sel]]
+            sn = np.where(h.terminal[sel], n_nodes - 1, lut[h.s_next[sel]])
+            self._stn = Stn.from_records(s, h.b[sel], sn, h.reward[sel], n_nodes,
+                                         self.n_behaviours)
+            self._stn_version = self._version
+        return self._stn
+
+    def planner(self) -> Iprl | Pia:
+        if self._planner_version != self._version or self._planner is None:
+            cfg = self.cfg
+            if cfg.planner == "pia":
+                self._planner = Pia(self.stn(), cfg.gamma, cfg.n_max)
+            else:
+                self._planner = Iprl(self.stn(), cfg.gamma, cfg.p_min, cfg.n_max,
+                                     memo=cfg.iprl_memo)
+            self._planner_version = self._version
+        return self._planner
+
+    def plan(self, sid: int) -> tuple[float, list[tuple[int, int]]]:
+        """(utility, master plan as (behaviour, target id) pairs; GOAL for the goal)."""
+        node = int(self.lut()[sid]) if sid < self.next_id else 0
+        u, elems = self.planner().plan(node)
+        return float(u), [(int(b), self.node_to_id(j)) for b, j in elems]
+
+    def compute_utilities(self) -> dict[int, float]:
+        planner = self.planner()
+        us = planner.utilities(range(1, len(self.order) + 1))
+        for sit, u in zip(self.order, us, strict=True):
+            sit.utility = float(u)
+        return {sit.id: sit.utility for sit in self.order}
+
+    def compute_utilities_readonly(self) -> dict[int, float]:
+        """Utilities under the current STN without touching the stored (ordering) ones."""
+        us = self.planner().utilities(range(1, len(self.order) + 1))
+        return {sit.id: float(u) for sit, u in zip(self.order, us, strict=True)}
+
+    # -- events -----------------------------------------------------------------------
+    def _event(self, kind: str, sit: Situation | None, **detail: Any) -> None:
+        ev: dict[str, Any] = {"step": int(self.hist.total), "event": kind}
+        if sit is not None:
+            ev.update(situation=sit.id, kind=sit.kind, behaviour=sit.behaviour,
+                      parent=sit.parent if sit.kind == T_KIND else None)
+        ev.update(detail)
+        self.events.append(ev)
+        self.event_count += 1
+
+    def _structure_changed(self) -> None:
+        self.structure_version += 1
+        self._version += 1
+        self.classifier.invalidate()
+        if self.cfg.relabel == "after_modification":
+            self.relabel()
+
+    def relabel(self) -> None:
+        """Re-classify every stored input (start and end) with the current situations."""
+        h = self.hist
+        idx = np.flatnonzero(h.valid)
+        if len(idx) and self.order:
+            h.s[idx] = self.classify_batch(h.x[idx])
+            h.s_next[idx] = self.classify_batch(h.x_next[idx])
+        elif len(idx):
+            h.s[idx] = MARGIN
+            h.s_next[idx] = MARGIN
+        for sit in self.order:
+            if sit.kind == T_KIND:
+                new = sit.positive_mask(h, self.cfg.r_min_r)
+                if not np.array_equal(new, sit.pos):
+                    sit.pos = new
+                    sit.neg &= ~new
+                    sit.shape_dirty = True
+                    sit.nn_dirty = True
+        self._version += 1
+
+    # -- one behaviour step -----------------------------------------------------------
+    def add_record(self, x, s: int, b: int, reward: float, x_next, s_next: int,
+                   terminal: bool) -> None:
+        """Store a record and run the learning of one behaviour step."""
+        cfg = self.cfg
+        h = self.hist
+        slot, forgot = h.append(x, s, b, reward, x_next, s_next, terminal)
+        for sit in self.order:  # forgetting: the slot leaves every population
+            if sit.pos[slot] or sit.neg[slot]:
+                if sit.pos[slot]:
+                    sit.shape_dirty = True
+                sit.pos[slot] = sit.neg[slot] = False
+                sit.nn_dirty = True
+        del forgot
+        if b >= 0:  # operation 1
+            for sit in self.order:
+                if sit.result_met(b, reward, s_next, terminal, cfg.r_min_r):
+                    sit.pos[slot] = True
+                    sit.shape_dirty = sit.nn_dirty = True
+            own = self.by_id.get(s)
+            if own is not None and own.behaviour == b and not own.result_met(
+                    b, reward, s_next, terminal, cfg.r_min_r):
+                own.neg[slot] = True
+                own.nn_dirty = True
+        self._version += 1
+        self._extract()
+        self._validity()
+        if h.total % cfg.adjust_interval == 0:
+            self._periodic()
+        if cfg.boundary_refit == "every_step":
+            self._refit(only_dirty=True)
+
+    # -- operation 2 ------------------------------------------------------------------
+    def _refit(self, only_dirty: bool) -> None:
+        changed = False
+        for sit in self.order:
+            if sit.shape_dirty or not only_dirty:
+                sit.fit(self.hist.x, self.cfg.cov_reg)
+                changed = True
+        if changed:
+            self.classifier.invalidate()
+
+    # -- extraction -------------------------------------------------------------------
+    def _extract(self) -> bool:
+        cfg = self.cfg
+        h = self.hist
+        beh = h.valid & (h.b >= 0)
+        big = beh & (h.reward > cfg.r_min_r)
+        if big.any():
+            keys = np.round(h.reward[big], 6)
+            bs = h.b[big]
+            pairs, counts = np.unique(np.stack([bs.astype(float), keys], axis=1), axis=0,
+                                      return_counts=True)
+            rank = sorted(range(len(pairs)), key=lambda k: (-counts[k], pairs[k][0], pairs[k][1]))
+            for k in rank:
+                b, key = int(pairs[k][0]), float(pairs[k][1])
+                if counts[k] > cfg.n_init_r and not self._exists((R_KIND, b, key)):
+                    self._new_situation(R_KIND, b, 0, key, int(counts[k]))
+                    return True
+        if not self.order:
+            return False
+        lut = self.lut()
+        n_nodes = len(self.order) + 2
+        sel = beh & ~big & ~h.terminal & (lut[h.s] == 0)
+        sn = lut[h.s_next[sel]]
+        keep = sn != 0
+        if not keep.any():
+            return False
+        key = h.b[sel][keep] * n_nodes + sn[keep]
+        counts = np.bincount(key, minlength=self.n_behaviours * n_nodes)
+        for k in np.argsort(-counts, kind="stable"):
+            if counts[k] <= cfg.n_init_t:
+                break
+            b, node = divmod(int(k), n_nodes)
+            parent = self.order[node - 1].id
+            if not self._exists((T_KIND, b, parent)):
+                self._new_situation(T_KIND, b, parent, 0.0, int(counts[k]))
+                return True
+        return False
+
+    def _exists(self, attrs: tuple, besides: Situation | None = None) -> bool:
+        return any(s.attributes() == attrs for s in self.order if s is not besides)
+
+    def _new_situation(self, kind: str, b: int, parent: int, key: float, count: int) -> None:
+        h = self.hist
+        sit = Situation(self.next_id, kind, b, h.capacity, h.dim, parent=parent,
+                        reward_key=key, created=h.total)
+        self.next_id += 1
+        sit.pos = sit.positive_mask(h, self.cfg.r_min_r)
+        sit.fit(h.x, self.cfg.cov_reg)
+        self.order.append(sit)  # bottom of the tree until the next re-ordering
+        self.by_id[sit.id] = sit
+        self._event("extracted", sit, records=count, positives=sit.n_pos)
+        self._structure_changed()
+
+    # -- operation 4 ------------------------------------------------------------------
+    def _inappropriate(self, sit: Situation, counts: np.ndarray) -> str | None:
+        cfg = self.cfg
+        n_min = cfg.n_min_r if sit.kind == R_KIND else cfg.n_min_t
+        if sit.n_pos < n_min:
+            return "too_few_positives"
+        if sit.kind == R_KIND:
+            return None
+        if sit.parent not in self.by_id:
+            return "parent_eliminated"
+        lut = self.lut()
+        row = counts[lut[sit.id]]
+        total = row.sum()
+        if total <= 0:
+            return None
+        top = row.max()
+        own = row[sit.behaviour, lut[sit.parent]]
+        if own >= top:
+            return None
+        if cfg.majority == "plurality" or top > total / 2.0:
+            return "not_majority"
+        return None
+
+    def _validity(self) -> None:
+        if not self.order:
+            return
+        handled: set[int] = set()  # recycle at most once per check
+        while True:
+            changed = False
+            for sit in list(self.order):
+                if sit.id not in self.by_id or sit.id in handled:
+                    continue
+                counts = self.stn().counts
+                reason = self._inappropriate(sit, counts)
+                if reason is None:
+                    continue
+                handled.add(sit.id)
+                self._recycle(sit, reason, counts)
+                changed = True
+            if not changed:
+                return
+
+    def _recycle(self, sit: Situation, reason: str, counts: np.ndarray) -> None:
+        cfg = self.cfg
+        if sit.kind == R_KIND:
+            self._eliminate(sit, reason)  # R-situations are never recycled (algorithm.md)
+            return
+        lut = self.lut()
+        row = counts[lut[sit.id]]
+        per_b = row.sum(axis=1)
+        if per_b.sum() <= 0:
+            self._eliminate(sit, reason + "; no behaviour taken from it in the history")
+            return
+        b_new = int(np.argmax(per_b))
+        node = int(np.argmax(row[b_new]))
+        if node == len(self.order) + 1:
+            self._eliminate(sit, reason + "; new result would be the goal reward")
+            return
+        if node == 0:
+            self._eliminate(sit, reason + "; case 1: new parent is situation 0")
+            return
+        parent = self.order[node - 1]
+        if parent is sit:
+            self._eliminate(sit, reason + "; case 2: new parent is itself")
+            return
+        if parent.kind == T_KIND and parent.parent == sit.id:
+            self._eliminate(sit, reason + "; case 3: new parent's parent is itself")
+            return
+        if self._exists((T_KIND, b_new, parent.id), besides=sit):
+            self._eliminate(sit, reason + "; case 4: attributes already taken")
+            return
+        h = self.hist
+        mask = h.valid & (h.b == b_new) & ~h.terminal & (h.s_next == parent.id)
+        if int(mask.sum()) < cfg.n_init_t:
+            self._eliminate(sit, reason + "; case 5: too few positive instances")
+            return
+        old = (sit.behaviour, sit.parent)
+        sit.behaviour, sit.parent = b_new, parent.id
+        sit.pos = mask
+        sit.neg = np.zeros_like(mask)
+        sit.fit(h.x, cfg.cov_reg)
+        self._event("redefined", sit, reason=reason, old_behaviour=old[0], old_parent=old[1])
+        self._structure_changed()
+
+    def _eliminate(self, sit: Situation, reason: str) -> None:
+        self.order.remove(sit)
+        del self.by_id[sit.id]
+        self._event("eliminated", sit, reason=reason)
+        self._structure_changed()
+
+    # -- operations 2, 3, 5 at the adjust interval ------------------------------------
+    def _periodic(self) -> None:
+        self._refit(only_dirty=False)  # operation 2
+        if not self.order:
+            return
+        self._version += 1
+        utilities = self.compute_utilities()
+        negative = [s for s in self.order if utilities[s.id] < 0.0]
+        for sit in negative:  # operation 5
+            if sit.id in self.by_id:
+                self._eliminate(sit, f"negative utility {utilities[sit.id]:.4g}")
+        if negative:
+            self.compute_utilities()
+        new = sorted(self.order, key=lambda s: -s.utility)  # operation 3 (stable)
+        if [s.id for s in new] != [s.id for s in self.order]:
+            self.order[:] = new
+            self._event("reordered", None, order=[s.id for s in new],
+                        utilities=[round(s.utility, 6) for s in new])
+            self._structure_changed()

@@ -1,0 +1,132 @@
+"""Typed, frozen configuration of the STNS learner (paper section 7 parameters + readings).
+
+Every field maps one to one onto a ROS parameter of the agent node (same snake_case name).
+The reading options (``random_stop``, ``majority``, ...) are documented in ``algorithm.md``
+with the paper section each departs from or resolves.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+from typing import Any
+
+from .errors import StnsConfigError
+
+PLANNERS = ("iprl", "pia")
+RANDOM_STOPS = ("situation_change", "reward")
+MAJORITIES = ("strict", "plurality")
+BOUNDARY_REFITS = ("every_step", "interval")
+RELABELS = ("after_modification", "never")
+
+_PRESETS: dict[str, dict[str, Any]] = {
+    # Paper section 7.1 (Exp. 1 and, from a saved learner, Exp. 2).
+    "exp1": dict(n_init_r=3, n_min_r=3, n_init_t=15, n_min_t=7, r_min_r=5.0, gamma=0.7,
+                 p_min=0.1, n_max=7, history_size=1000, adjust_interval=100),
+    # Paper section 7.3 (8-D input).
+    "exp3": dict(n_init_r=9, n_min_r=9, n_init_t=20, n_min_t=12, r_min_r=5.0, gamma=0.7,
+                 p_min=0.2, n_max=7, history_size=10000, adjust_interval=100),
+}
+
+
+@dataclass(frozen=True)
+class StnsConfig:
+    """Parameters of the learner. Validated on construction; immutable.
+
+    Paper parameters (section 7): ``n_init_r`` (N_init^R), ``n_min_r`` (N_min^R),
+    ``n_init_t`` (N_init^T), ``n_min_t`` (N_min^T), ``r_min_r`` (r_min^R), ``gamma``,
+    ``p_min``, ``n_max``, ``history_size``, ``adjust_interval`` (boundaries and order).
+    """
+
+    n_init_r: int = 3
+    n_min_r: int = 3
+    n_init_t: int = 15
+    n_min_t: int = 7
+    r_min_r: float = 5.0
+    gamma: float = 0.7
+    p_min: float = 0.1
+    n_max: int = 7
+    history_size: int = 1000
+    adjust_interval: int = 100
+    planner: str = "iprl"
+    seed: int = 0
+    # Readings of open points (algorithm.md, "Readings").
+    random_stop: str = "situation_change"
+    majority: str = "strict"
+    boundary_refit: str = "every_step"
+    target_lookahead_ticks: int = 0
+    relabel: str = "after_modification"
+    iprl_memo: bool = True
+    cov_reg: float = 1e-3
+    max_behaviour_ticks: int = 0
+    event_log_size: int = 500
+
+    def __post_init__(self) -> None:
+        ints = {
+            "n_init_r": 1, "n_min_r": 1, "n_init_t": 1, "n_min_t": 1, "n_max": 1,
+            "history_size": 2, "adjust_interval": 1, "seed": 0,
+            "target_lookahead_ticks": 0, "max_behaviour_ticks": 0, "event_log_size": 1,
+        }
+        for name, lowest in ints.items():
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, int):
+                raise StnsConfigError(f"{name} must be an int, got {value!r}")
+            if value < lowest:
+                raise StnsConfigError(f"{name} must be >= {lowest}, got {value!r}")
+        for name in ("r_min_r", "gamma", "p_min", "cov_reg"):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, int | float):
+                raise StnsConfigError(f"{name} must be a number, got {value!r}")
+            if value != value or value in (float("inf"), float("-inf")):
+                raise StnsConfigError(f"{name} must be finite, got {value!r}")
+            object.__setattr__(self, name, float(value))
+        if not 0.0 <= self.gamma < 1.0:
+            raise StnsConfigError(f"gamma must be in [0, 1), got {self.gamma!r}")
+        if not 0.0 <= self.p_min < 1.0:
+            raise StnsConfigError(f"p_min must be in [0, 1), got {self.p_min!r}")
+        if self.cov_reg <= 0.0:
+            raise StnsConfigError(f"cov_reg must be > 0, got {self.cov_reg!r}")
+        if self.n_min_r > self.history_size or self.n_init_t > self.history_size:
+            raise StnsConfigError(
+                f"history_size {self.history_size} is smaller than the instance counts")
+        if not isinstance(self.iprl_memo, bool):
+            raise StnsConfigError(f"iprl_memo must be a bool, got {self.iprl_memo!r}")
+        choices = {
+            "planner": PLANNERS, "random_stop": RANDOM_STOPS, "majority": MAJORITIES,
+            "boundary_refit": BOUNDARY_REFITS, "relabel": RELABELS,
+        }
+        for name, allowed in choices.items():
+            value = getattr(self, name)
+            if value not in allowed:
+                raise StnsConfigError(f"{name} must be one of {allowed}, got {value!r}")
+
+    @classmethod
+    def preset(cls, name: str, **overrides: Any) -> StnsConfig:
+        """The paper's parameters for ``"exp1"`` (also Exp. 2) or ``"exp3"``, plus overrides."""
+        if name not in _PRESETS:
+            raise StnsConfigError(f"unknown preset {name!r}; known: {sorted(_PRESETS)}")
+        values = dict(_PRESETS[name])
+        values.update(overrides)
+        return cls.from_dict(values)
+
+    def replace(self, **changes: Any) -> StnsConfig:
+        """A copy with some fields changed (validated)."""
+        unknown = set(changes) - {f.name for f in dataclasses.fields(self)}
+        if unknown:
+            raise StnsConfigError(f"unknown StnsConfig keys: {sorted(unknown)}")
+        return dataclasses.replace(self, **changes)
+
+    def to_dict(self) -> dict[str, Any]:
+        """Plain dict (json-serialisable), one key per field."""
+        return dataclasses.asdict(self)
+
+    @classmethod
+    def from_dict(cls, data: dict[str, Any]) -> StnsConfig:
+        """Build from a dict; unknown keys are rejected with StnsConfigError."""
+        if not isinstance(data, dict):
+            raise StnsConfigError(f"config must be a dict, got {type(data).__name__}")
+        known = {f.name for f in dataclasses.fields(cls)}
+        unknown = set(data) - known
+        if unknown:
+            raise StnsConfigError(f"unknown StnsConfig keys: {sorted(unknown)}")
+        return cls(**data)

@@ -1,0 +1,146 @@
+"""Behavioural learning (paper section 6.2): IPRL and PIA on the STN.
+
+IPRL: forward search from the current situation. A node reached by a path of length ``k``
+with success probability ``P`` is expanded when ``P > p_min`` and ``k < n_max``; any other
+node is a leaf with utility 0 (the goal node always is). Utilities are backed up with Eq. 1;
+each node feeds back to its parent the behaviour maximising the right side and the successor
+maximising the summand; the root's chain is the master plan ``((b1, d1), (b2, d2), ...)``.
+
+Memoisation: the result of expanding node ``i`` at depth ``k`` depends on the path
+probability ``P`` only through which descendants pass ``p_min``; each result is cached with
+the interval of ``P`` over which it holds, so repeated sub-searches are answered exactly.
+
+Untried behaviours count in Eq. 1's max with value 0 (an empty sum).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .stn import Stn
+
+Plan = tuple[tuple[int, int], ...]
+
+
+class Iprl:
+    """IPRL search over one STN; one memo shared by every root searched on that STN."""
+
+    def __init__(self, stn: Stn, gamma: float, p_min: float, n_max: int,
+                 memo: bool = True) -> None:
+        self.stn = stn
+        self.gamma = gamma
+        self.p_min = p_min
+        self.n_max = n_max
+        self.memo: dict[tuple[int, int], list] | None = {} if memo else None
+        self.expansions = 0
+
+    def plan(self, root: int) -> tuple[float, Plan]:
+        """(utility of ``root``, master plan) with node indices of the STN."""
+        u, plan, _, _ = self._expand(root, 0, 1.0)
+        return u, plan
+
+    def _expand(self, i: int, k: int, prob: float):
+        memo = self.memo
+        if memo is not None:
+            for lo, hi, u, plan in memo.get((i, k), ()):
+                if lo < prob <= hi:
+                    return u, plan, lo, hi
+        self.expansions += 1
+        stn = self.stn
+        gamma, p_min = self.gamma, self.p_min
+        leaf_children = k + 1 >= self.n_max
+        goal = stn.goal
+        lo, hi = 0.0, math.inf
+        best_u = -math.inf
+        best_plan: Plan = ()
+        untried = False
+        for b, succ in enumerate(stn.successors[i]):
+            if succ is None:
+                untried = True
+                continue
+            total = 0.0
+            best_term = -math.inf
+            best_elem: Plan = ()
+            for j, p, r in succ:
+                u_j = 0.0
+                sub: Plan = ()
+                if j != goal and not leaf_children:
+                    if prob * p > p_min:
+                        u_j, sub, clo, chi = self._expand(j, k + 1, prob * p)
+                        lo = max(lo, p_min / p, clo / p)
+                        hi = min(hi, chi / p)
+                    else:
+                        hi = min(hi, p_min / p)
+                term = p * (r + gamma * u_j)
+                total += term
+                if term > best_term:
+                    best_term = term
+                    best_elem = ((b, j),) + sub
+            if total > best_u:
+                best_u = total
+                best_plan = best_elem
+        if best_u == -math.inf or (untried and best_u < 0.0):
+            best_u, best_plan = 0.0, ()
+        if memo is not None:
+            memo.setdefault((i, k), []).append((lo, hi, best_u, best_plan))
+        return best_u, best_plan, lo, hi
+
+    def utilities(self, roots) -> np.ndarray:
+        return np.array([self.plan(i)[0] for i in roots])
+
+
+def iprl_plan(stn: Stn, root: int, gamma: float, p_min: float, n_max: int,
+              memo: bool = True) -> tuple[float, Plan]:
+    """Convenience: one IPRL search."""
+    return Iprl(stn, gamma, p_min, n_max, memo).plan(root)
+
+
+class Pia:
+    """Policy iteration on the whole STN (paper section 6.2, the alternative planner)."""
+
+    def __init__(self, stn: Stn, gamma: float, n_max: int, max_iter: int = 200) -> None:
+        self.stn = stn
+        self.gamma = gamma
+        self.n_max = n_max
+        n = stn.n_nodes
+        exp_r = np.einsum("ibj,ibj->ib", stn.p, stn.r)
+        idx = np.arange(n)
+        q = np.where(stn.tried, exp_r, 0.0)
+        policy = np.argmax(q, axis=1)
+        u = np.zeros(n)
+        for _ in range(max_iter):
+            live = stn.tried[idx, policy]
+            p_pi = np.where(live[:, None], stn.p[idx, policy], 0.0)
+            r_pi = np.where(live, exp_r[idx, policy], 0.0)
+            u = np.linalg.solve(np.eye(n) - gamma * p_pi, r_pi)
+            q = exp_r + gamma * np.einsum("ibj,j->ib", stn.p, u)
+            q[~stn.tried] = 0.0
+            best = q.max(axis=1)
+            keep = q[idx, policy] >= best - 1e-12
+            new_policy = np.where(keep, policy, np.argmax(q, axis=1))
+            if np.array_equal(new_policy, policy):
+                break
+            policy = new_policy
+        self.policy = policy
+        self.u = u
+
+    def plan(self, root: int) -> tuple[float, Plan]:
+        stn = self.stn
+        u_root = float(self.u[root])
+        elems: list[tuple[int, int]] = []
+        i = root
+        while len(elems) < self.n_max and i != stn.goal:
+            b = int(self.policy[i])
+            if not stn.tried[i, b] or self.u[i] <= 0.0:
+                break
+            terms = stn.p[i, b] * (stn.r[i, b] + self.gamma * self.u)
+            terms[stn.counts[i, b] <= 0] = -math.inf
+            j = int(np.argmax(terms))
+            elems.append((b, j))
+            i = j
+        return u_root, tuple(elems)
+
+    def utilities(self, roots) -> np.ndarray:
+        return np.array([float(self.u[i]) for i in roots])

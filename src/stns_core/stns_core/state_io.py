@@ -1,0 +1,158 @@
+"""Save and load the learner's whole state (one versioned .npz file, written atomically).
+
+Layout: ``meta`` (a JSON string: format, version, config, dimensions, RNG state, agent and
+situation scalars, event log, pending records) plus numpy arrays (history columns, each
+situation's mean / covariance / instance slots). Loading checks everything and raises
+StnsStateError naming the file and the problem; saving writes a temporary file beside the
+target and renames it, so a failed save never destroys the previous file.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import tempfile
+import zipfile
+from collections import deque
+from os import PathLike
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from .config import StnsConfig
+from .errors import StnsError, StnsStateError
+from .history import History
+from .records import StepRecord
+from .situation import R_KIND, T_KIND, Situation
+
+if TYPE_CHECKING:
+    from .agent import StnsAgent
+
+FORMAT = "stns_core.learner"
+FORMAT_VERSION = 1
+
+
+def save_agent(agent: StnsAgent, path: str | PathLike) -> None:
+    from .agent import _Running  # noqa: F401  (documented type of agent._run)
+
+    path = os.fspath(path)
+    learner = agent.learner
+    arrays: dict[str, np.ndarray] = {}
+    for name, arr in learner.hist.state().items():
+        arrays[f"hist_{name}"] = arr
+    sits = []
+    for k, sit in enumerate(learner.order):
+        sits.append({
+            "id": sit.id, "kind": sit.kind, "behaviour": sit.behaviour, "parent": sit.parent,
+            "reward_key": sit.reward_key, "created": sit.created, "utility": sit.utility,
+            "boundary": sit.boundary, "fitted": sit.fitted, "shape_dirty": sit.shape_dirty,
+        })
+        arrays[f"sit{k}_mean"] = sit.mean
+        arrays[f"sit{k}_cov"] = sit.cov
+        arrays[f"sit{k}_pos"] = np.flatnonzero(sit.pos)
+        arrays[f"sit{k}_neg"] = np.flatnonzero(sit.neg)
+    meta = {
+        "format": FORMAT,
+        "version": FORMAT_VERSION,
+        "config": agent.config.to_dict(),
+        "obs_dim": agent.obs_dim,
+        "n_behaviours": agent.n_behaviours,
+        "rng_state": agent.rng.bit_generator.state,
+        "trial": agent.trial,
+        "current": agent._current,
+        "plan_utility": agent._plan_utility,
+        "running": None if agent._run is None else agent._run.to_dict(),
+        "plan": [list(e) for e in agent._plan],
+        "prev_reached": agent._prev_reached,
+        "pending": [r.to_dict() for r in agent._pending],
+        "next_id": learner.next_id,
+        "situations": sits,
+        "events": list(learner.events),
+        "event_count": learner.event_count,
+    }
+    arrays["meta"] = np.array(json.dumps(meta))
+    directory = os.path.dirname(os.path.abspath(path))
+    fd, tmp = tempfile.mkstemp(prefix=".stns-", suffix=".tmp", dir=directory)
+    try:
+        with os.fdopen(fd, "wb") as fh:
+            np.savez_compressed(fh, **arrays)
+            fh.flush()
+            os.fsync(fh.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        raise
+
+
+def load_agent(cls, path: str | PathLike) -> StnsAgent:
+    path = os.fspath(path)
+    try:
+        with np.load(path, allow_pickle=False) as data:
+            arrays = {name: data[name] for name in data.files}
+    except FileNotFoundError as exc:
+        raise StnsStateError(f"{path}: no such file") from exc
+    except (OSError, ValueError, EOFError, zipfile.BadZipFile, KeyError) as exc:
+        raise StnsStateError(f"{path}: not a readable learner file ({exc})") from exc
+    try:
+        return _restore(cls, arrays)
+    except StnsStateError as exc:
+        raise StnsStateError(f"{path}: {exc}") from exc
+    except (StnsError, KeyError, ValueError, TypeError, IndexError, AttributeError,
+            json.JSONDecodeError, np.linalg.LinAlgError) as exc:
+        raise StnsStateError(f"{path}: incompatible or corrupt learner state "
+                             f"({type(exc).__name__}: {exc})") from exc
+
+
+def _restore(cls, arrays: dict[str, np.ndarray]) -> StnsAgent:
+    from .agent import _Running
+
+    if "meta" not in arrays:
+        raise StnsStateError("no 'meta' entry: not a stns_core learner file")
+    meta: dict[str, Any] = json.loads(str(arrays["meta"]))
+    if meta.get("format") != FORMAT:
+        raise StnsStateError(f"format {meta.get('format')!r} is not {FORMAT!r}")
+    if meta.get("version") != FORMAT_VERSION:
+        raise StnsStateError(
+            f"format version {meta.get('version')!r} unsupported (expected {FORMAT_VERSION})")
+    config = StnsConfig.from_dict(meta["config"])
+    agent = cls(config, int(meta["obs_dim"]), int(meta["n_behaviours"]))
+    learner = agent.learner
+    hist = History.from_state({k[5:]: v for k, v in arrays.items() if k.startswith("hist_")})
+    if hist.capacity != config.history_size or hist.dim != agent.obs_dim:
+        raise StnsStateError(f"history shape ({hist.capacity}, {hist.dim}) does not match "
+                             f"history_size {config.history_size} / obs_dim {agent.obs_dim}")
+    learner.hist = hist
+    learner.next_id = int(meta["next_id"])
+    for k, d in enumerate(meta["situations"]):
+        if d["kind"] not in (R_KIND, T_KIND):
+            raise StnsStateError(f"situation kind {d['kind']!r}")
+        sit = Situation(d["id"], d["kind"], d["behaviour"], hist.capacity, hist.dim,
+                        parent=d["parent"], reward_key=d["reward_key"], created=d["created"])
+        if not 0 < sit.id < learner.next_id or sit.id in learner.by_id:
+            raise StnsStateError(f"situation id {sit.id} invalid or repeated")
+        mean, cov = arrays[f"sit{k}_mean"], arrays[f"sit{k}_cov"]
+        if mean.shape != (hist.dim,) or cov.shape != (hist.dim, hist.dim):
+            raise StnsStateError(f"situation {sit.id} shape arrays have the wrong size")
+        sit.set_shape(mean, cov, d["boundary"], d["fitted"])
+        sit.shape_dirty = bool(d["shape_dirty"])
+        sit.utility = float(d["utility"])
+        sit.pos[arrays[f"sit{k}_pos"]] = True
+        sit.neg[arrays[f"sit{k}_neg"]] = True
+        learner.order.append(sit)
+        learner.by_id[sit.id] = sit
+    learner.events = deque(meta["events"], maxlen=config.event_log_size)
+    learner.event_count = int(meta["event_count"])
+    learner.structure_version += 1
+    learner.classifier.invalidate()
+    rng = np.random.default_rng()
+    rng.bit_generator.state = meta["rng_state"]
+    agent.rng = rng
+    agent.trial = int(meta["trial"])
+    agent._current = int(meta["current"])
+    agent._plan_utility = float(meta["plan_utility"])
+    agent._run = None if meta["running"] is None else _Running.from_dict(meta["running"])
+    agent._plan = [(int(b), int(d)) for b, d in meta["plan"]]
+    agent._prev_reached = meta["prev_reached"]
+    agent._pending = [StepRecord.from_dict(r) for r in meta["pending"]]
+    return agent
