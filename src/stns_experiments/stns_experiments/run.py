@@ -1,0 +1,461 @@
+"""Orchestration of each experiment: tasks, the parallel run, summary.json and figures."""
+
+from __future__ import annotations
+
+import copy
+import json
+import logging
+import math
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from stns_experiments import metrics as M
+from stns_experiments import plots
+from stns_experiments.config import ExperimentError
+from stns_experiments.experiments import (
+    PAPER,
+    delay_figures,
+    dispatch,
+    load_agent,
+    make_world,
+    random_summary,
+    situations_of,
+    summarise_sets,
+)
+from stns_experiments.runner import run_tasks, set_seeds, write_json
+
+log = logging.getLogger("stns_experiments")
+
+SUMMARY_KEYS = (
+    "experiment", "seed", "trial_sets", "steps", "block_size", "behaviours_to_goal_by_block",
+    "final_behaviours_to_goal", "convergence_step", "success_rate_r", "success_rate_t",
+    "within_two_behaviours", "random_arrivals_per_100", "situations_final", "wall_seconds",
+    "behaviour_steps_per_second",
+)
+
+STREAM_LEARNER, STREAM_RANDOM, STREAM_SCRATCH, STREAM_FAULT = 0, 1, 2, 3
+
+
+class Run:
+    """One invocation: parameters, output folder, timing, task errors."""
+
+    def __init__(self, params: dict, out: Path, jobs: int, command: str,
+                 progress: bool = True) -> None:
+        self.params, self.out, self.jobs = params, Path(out), max(1, int(jobs))
+        self.command, self.progress = command, progress
+        self.t0 = time.monotonic()
+        self.errors: dict[str, str] = {}
+        self.interrupted = False
+        self.out.mkdir(parents=True, exist_ok=True)
+        (self.out / "figures").mkdir(exist_ok=True)
+
+    def tasks(self, tasks: list[dict], label: str) -> dict[str, dict]:
+        if self.interrupted:
+            return {}
+        res, err, intr = run_tasks(dispatch, tasks, self.jobs, label, self.progress)
+        self.errors.update(err)
+        self.interrupted = self.interrupted or intr
+        for k, e in err.items():
+            log.error("task %s failed: %s", k, e)
+        return res
+
+    def task(self, fn: str, key: str, index: int, steps: int, seeds: dict, params=None,
+             out: Path | None = None, **extra: Any) -> dict:
+        return {"fn": fn, "key": key, "index": index, "steps": int(steps), "seeds": seeds,
+                "params": params or self.params, "out": str(out or self.out), **extra}
+
+    def random_tasks(self) -> list[dict]:
+        n = self.params["random_steps"]
+        if n <= 0:
+            return []
+        seeds = set_seeds(self.params["seed"], 1, STREAM_RANDOM)[0]
+        return [self.task("random", "random", 0, n, seeds)]
+
+    def finish(self, summary: dict, figures: list[str]) -> dict:
+        p = self.params
+        wall = time.monotonic() - self.t0
+        base = {"experiment": p["experiment"], "seed": p["seed"], "trial_sets": p["trial_sets"],
+                "steps": p["steps"], "block_size": p["block_size"]}
+        summary = {**base, **summary}
+        for k in SUMMARY_KEYS:
+            summary.setdefault(k, None)
+        summary["wall_seconds"] = wall
+        summary.update({
+            "command": self.command,
+            "config_source": p.get("config_source"),
+            "final_window": p["final_window"],
+            "convergence_definition": (
+                f"block rule: first block from which every block's behaviours-to-goal "
+                f"(pooled over trial sets) is within {p['convergence_tol']:.0%} of the final "
+                f"level (last {p['final_window']} steps); value = steps before that block. "
+                f"convergence_step_trailing: first block end from which the trailing "
+                f"{p['trailing_window']}-step window stays within the same band."),
+            "interrupted": self.interrupted,
+            "errors": self.errors,
+            "figures": figures,
+            "paper": PAPER.get(p["experiment"].split("-")[0], {}),
+        })
+        write_json(self.out / "summary.json", summary)
+        return summary
+
+
+def _seeds(params: dict, stream: int = STREAM_LEARNER) -> list[dict]:
+    return set_seeds(params["seed"], params["trial_sets"], stream)
+
+
+def _write_config(run: Run, seeds: dict[str, Any]) -> None:
+    write_json(run.out / "config.json", {"params": run.params, "seeds": seeds,
+                                         "command": run.command})
+
+
+def _sorted(results: dict[str, dict], prefix: str) -> list[dict]:
+    return [results[k] for k in sorted(results) if k.startswith(prefix)]
+
+
+def _safe_figure(figures: list[str], run: Run, fn, *args, **kw) -> None:
+    if not run.params["figures"]:
+        return
+    try:
+        path = fn(*args, **kw)
+        figures.append(str(Path(path).relative_to(run.out)))
+    except Exception as e:  # noqa: BLE001 - a failed figure must not lose the results
+        log.warning("figure %s failed: %s", args[0] if args else fn.__name__, e)
+        run.errors[f"figure:{Path(args[0]).name if args else fn.__name__}"] = str(e)
+
+
+def _map_from_state(run: Run, state: Path, path: Path, title: str) -> Path:
+    agent = load_agent(state)
+    return plots.situation_map(path, agent.classify, situations_of(agent), title)
+
+
+# ---------------------------------------------------------------------------- exp1 / exp3
+def run_learning(run: Run) -> dict:
+    """Exp. 1 and Exp. 3: trial sets of STNS from scratch, plus the random-policy rate."""
+    p = run.params
+    seeds = _seeds(p)
+    _write_config(run, {"sets": seeds})
+    tasks = [run.task("stns", f"set{i:02d}", i, p["steps"], s) for i, s in enumerate(seeds)]
+    res = run.tasks(tasks + run.random_tasks(), p["experiment"])
+    sets = _sorted(res, "set")
+    summary = summarise_sets(sets, p, p["steps"]) if sets else {}
+    summary["trial_sets_finished"] = len(sets)
+    summary.update(random_summary(_sorted(res, "random")))
+    summary["trial_set_seeds"] = seeds
+    figures: list[str] = []
+    if sets:
+        exp = p["experiment"]
+        fig_n = "6" if exp == "exp1" else "6 (Exp. 3)"
+        _safe_figure(figures, run, plots.curve_figure,
+                     run.out / "figures" / f"{exp}_behaviours_to_goal.png",
+                     [{"label": f"STNS, {len(sets)} trial sets (IQR band)",
+                       "y": summary["behaviours_to_goal_by_block"],
+                       "lo": summary["behaviours_to_goal_by_block_q25"],
+                       "hi": summary["behaviours_to_goal_by_block_q75"]}],
+                     f"{exp}: behaviours to goal by block (Fig. {fig_n}), seed {p['seed']}",
+                     p["block_size"], paper_level=PAPER.get(exp, {}).get("final_behaviours_to_goal"),
+                     paper_label="paper's final level")
+        first = sets[0]["key"]
+        state = run.out / "states" / f"{first}.npz"
+        if state.exists() and p["world"]["preset"] == "exp1":
+            _safe_figure(figures, run, _map_from_state, run, state,
+                         run.out / "figures" / f"{exp}_situations_{first}.png",
+                         f"{exp}: situations after {p['steps']} steps, trial set {first} (Fig. 5)")
+        elif state.exists():
+            _safe_figure(figures, run, _workspace_maps, run, state, first)
+    return run.finish(summary, figures)
+
+
+def _workspace_maps(run: Run, state: Path, key: str) -> Path:
+    agent = load_agent(state)
+    seeds = set_seeds(run.params["seed"], 1, STREAM_RANDOM)[0]
+    world = make_world(run.params, seeds["world_seed"])
+    try:
+        world.reset()
+        path = run.out / "figures" / f"exp3_situations_{key}.png"
+        plots.workspace_map(path, world, agent.classify, situations_of(agent), 0.0,
+                            f"exp3: situations after {run.params['steps']} steps, {key} (Fig. 12)")
+    finally:
+        world.close()
+    return path
+
+
+# ---------------------------------------------------------------------------- exp2
+def _fault(p: dict, level: float) -> tuple[str, float]:
+    if p["fault"] == "left_wheel_slowdown_pct":
+        return "left_wheel_gain", 1.0 - level / 100.0
+    return "goal_sensor_rotation_deg", float(level)
+
+
+def _level_name(p: dict, level: float) -> str:
+    v = f"{level:g}"
+    return f"{v}pct" if p["fault"] == "left_wheel_slowdown_pct" else f"{v}deg"
+
+
+def run_exp2(run: Run) -> dict:
+    """Exp. 2: learners after ``pretrain_steps`` of Exp. 1 continue with a fault; beside
+    them, learners from scratch with the fault."""
+    p = run.params
+    n = p["trial_sets"]
+    seeds = _seeds(p)
+    base_dir = Path(p["from"]) if p["from"] else run.out / "base"
+    base_params = copy.deepcopy(p)
+    base_params["block_size"] = 100
+    base_results: list[dict] = []
+    if p["from"]:
+        states = sorted((base_dir / "states").glob("set*.npz"))
+        if len(states) < n:
+            raise ExperimentError(
+                f"--from {str(base_dir)!r}: needs {n} learner states states/set*.npz, "
+                f"found {len(states)}")
+        for st in states[:n]:
+            rj = base_dir / "sets" / (st.stem + ".json")
+            if rj.exists():
+                base_results.append(json.loads(rj.read_text()))
+        base_states = [str(s) for s in states[:n]]
+    else:
+        tasks = [run.task("stns", f"set{i:02d}", i, p["pretrain_steps"], s, params=base_params,
+                          out=base_dir) for i, s in enumerate(seeds)]
+        res = run.tasks(tasks, f"{p['experiment']} pre-training")
+        base_results = _sorted(res, "set")
+        base_states = [str(base_dir / "states" / f"{r['key']}.npz") for r in base_results]
+    base_final = (float(M.ratio(sum(r["final_behaviours"] for r in base_results),
+                                sum(r["final_arrivals"] for r in base_results)))
+                  if base_results else None)
+    relearn_seeds = set_seeds(p["seed"], n, STREAM_FAULT)
+    scratch_seeds = set_seeds(p["seed"], n, STREAM_SCRATCH)
+    _write_config(run, {"pretrain": seeds, "relearn": relearn_seeds, "scratch": scratch_seeds,
+                        "base_states": base_states})
+    tasks = []
+    for level in p["levels"]:
+        name, value = _fault(p, level)
+        ln = _level_name(p, level)
+        for i, st in enumerate(base_states):
+            tasks.append(run.task("exp2", f"{ln}-relearn-{i:02d}", i, p["steps"], relearn_seeds[i],
+                                  mode="relearn", level=level, fault_name=name,
+                                  fault_value=value, base_state=st))
+        if p["scratch"]:
+            for i in range(n):
+                tasks.append(run.task("exp2", f"{ln}-scratch-{i:02d}", i, p["steps"],
+                                      scratch_seeds[i], mode="scratch", level=level,
+                                      fault_name=name, fault_value=value))
+    res = run.tasks(tasks + run.random_tasks(), p["experiment"])
+    levels: dict[str, Any] = {}
+    figures: list[str] = []
+    all_relearn: list[dict] = []
+    tol = p["convergence_tol"]
+    for level in p["levels"]:
+        ln = _level_name(p, level)
+        rl = _sorted(res, f"{ln}-relearn-")
+        sc = _sorted(res, f"{ln}-scratch-")
+        all_relearn += rl
+        entry: dict[str, Any] = {"level": level, "fault": dict([_fault(p, level)])}
+        if rl:
+            entry["relearn"] = summarise_sets(rl, p, p["steps"])
+            elim = [r.get("eliminated_after_fault") for r in rl]
+            gone = [r.get("original_situations_gone") for r in rl]
+            entry["eliminated_after_fault_mean"] = float(np.mean([e or 0 for e in elim]))
+            entry["sets_without_elimination"] = sum(1 for e in elim if not e)
+            entry["original_situations_gone_mean"] = float(np.mean([g or 0 for g in gone]))
+            entry["situations_before_mean"] = float(np.mean([r.get("situations_before") or 0
+                                                              for r in rl]))
+            if base_final is not None and math.isfinite(base_final):
+                curve = np.array(entry["relearn"]["behaviours_to_goal_by_block"], float)
+                worse = ~(np.isfinite(curve) & (curve <= (1 + tol) * base_final))
+                entry["blocks_worse_than_prefault"] = int(worse.sum())
+                entry["prefault_level"] = base_final
+        if sc:
+            entry["scratch"] = summarise_sets(sc, p, p["steps"])
+        if rl and sc:
+            entry.update(delay_figures(entry["relearn"], entry["scratch"], p["block_size"], tol))
+        levels[ln] = entry
+        if rl or sc:
+            series = []
+            if rl:
+                series.append({"label": f"relearn after {p['pretrain_steps']} steps ({len(rl)} sets)",
+                               "y": entry["relearn"]["behaviours_to_goal_by_block"],
+                               "lo": entry["relearn"]["behaviours_to_goal_by_block_q25"],
+                               "hi": entry["relearn"]["behaviours_to_goal_by_block_q75"]})
+            if sc:
+                series.append({"label": f"from scratch with the fault ({len(sc)} sets)",
+                               "y": entry["scratch"]["behaviours_to_goal_by_block"],
+                               "lo": entry["scratch"]["behaviours_to_goal_by_block_q25"],
+                               "hi": entry["scratch"]["behaviours_to_goal_by_block_q75"],
+                               "style": "--"})
+            fig = "8" if p["fault"].startswith("goal") else "10"
+            _safe_figure(figures, run, plots.curve_figure,
+                         run.out / "figures" / f"{p['experiment']}_{ln}.png", series,
+                         f"{p['experiment']} {ln}: relearning vs scratch (Fig. {fig})",
+                         p["block_size"], paper_level=base_final,
+                         paper_label="pre-fault level (our Exp. 1 learners)",
+                         xlabel="behaviour steps after the fault")
+        if rl and p["figures"]:
+            st = run.out / "states" / f"{rl[0]['key']}.npz"
+            if st.exists():
+                fig = "7" if p["fault"].startswith("goal") else "9"
+                _safe_figure(figures, run, _map_from_state, run, st,
+                             run.out / "figures" / f"{p['experiment']}_{ln}_situations.png",
+                             f"{p['experiment']} {ln}: situations {p['steps']} steps after "
+                             f"the fault, {rl[0]['key']} (Fig. {fig})")
+    summary = summarise_sets(all_relearn, p, p["steps"]) if all_relearn else {}
+    summary.update(random_summary(_sorted(res, "random")))
+    summary.update({"levels": levels, "pretrain_steps": p["pretrain_steps"],
+                    "from": str(base_dir), "prefault_final_behaviours_to_goal": base_final,
+                    "top_level_keys_describe": "relearn runs pooled over all fault levels",
+                    "trial_set_seeds": {"pretrain": seeds, "relearn": relearn_seeds,
+                                        "scratch": scratch_seeds}})
+    return run.finish(summary, figures)
+
+
+# ---------------------------------------------------------------------------- grid
+def _reach(results_summary: dict, bs_sum, ar_sum, block: int, thresholds, window: int) -> dict:
+    tr = M.trailing_curve(bs_sum, ar_sum, block, window)
+    cum_b = np.cumsum(bs_sum)
+    out = {}
+    for th in thresholds:
+        idx = np.nonzero(np.isfinite(tr) & (tr <= th))[0]
+        out[f"{th:g}"] = None if len(idx) == 0 else int(cum_b[idx[0]])
+    return out
+
+
+def _group_counts(results: list[dict]) -> tuple[np.ndarray, np.ndarray]:
+    bs = np.array([r["block_behaviours"] for r in results], dtype=np.int64).sum(0)
+    ar = np.array([r["block_arrivals"] for r in results], dtype=np.int64).sum(0)
+    n = max(1, len(results))
+    return bs / n, ar / n
+
+
+THRESHOLDS = (20, 10, 5, 3)
+
+
+def run_grid(run: Run) -> dict:
+    """§7.5: tabular learners on the polar and orthogonal grids beside STNS."""
+    p = run.params
+    seeds = _seeds(p)
+    _write_config(run, {"sets": seeds})
+    tasks = []
+    for g in p["grids"]:
+        for lr in p["learners"]:
+            for i, s in enumerate(seeds):
+                tasks.append(run.task("grid", f"{g}-{lr}-{i:02d}", i, p["steps"], s, grid=g,
+                                      learner=lr))
+    stns_results: list[dict] = []
+    if p["from"]:
+        d = Path(p["from"]) / "sets"
+        files = sorted(d.glob("set*.json"))
+        if not files:
+            raise ExperimentError(f"--from {p['from']!r}: no STNS trial-set results in {str(d)!r}")
+        stns_results = [json.loads(f.read_text()) for f in files]
+        if stns_results[0]["steps"] < p["steps"]:
+            raise ExperimentError(
+                f"--from {p['from']!r}: STNS runs have {stns_results[0]['steps']} steps, "
+                f"fewer than --steps {p['steps']}")
+    elif p["compare_stns"]:
+        tasks += [run.task("stns", f"stns-{i:02d}", i, p["steps"], s) for i, s in enumerate(seeds)]
+    res = run.tasks(tasks + run.random_tasks(), "grid")
+    if not p["from"]:
+        stns_results = _sorted(res, "stns-")
+    groups: dict[str, Any] = {}
+    series = []
+    B, tw = p["block_size"], p["trailing_window"]
+    stns_sum = None
+    if stns_results:
+        nb = math.ceil(p["steps"] / B)
+        trimmed = [dict(r, block_behaviours=r["block_behaviours"][:nb],
+                        block_arrivals=r["block_arrivals"][:nb]) for r in stns_results]
+        stns_sum = summarise_sets(trimmed, {**p, "block_size": B}, p["steps"])
+        bs, ar = _group_counts(trimmed)
+        stns_sum["behaviours_needed_to_reach"] = _reach(stns_sum, bs, ar, B, THRESHOLDS, tw)
+        series.append({"label": f"STNS ({len(trimmed)} sets)",
+                       "y": stns_sum["behaviours_to_goal_by_block"],
+                       "lo": stns_sum["behaviours_to_goal_by_block_q25"],
+                       "hi": stns_sum["behaviours_to_goal_by_block_q75"]})
+    first = None
+    for g in p["grids"]:
+        for lr in p["learners"]:
+            rs = _sorted(res, f"{g}-{lr}-")
+            if not rs:
+                continue
+            s = summarise_sets(rs, p, p["steps"])
+            bs, ar = _group_counts(rs)
+            s["behaviours_needed_to_reach"] = _reach(s, bs, ar, B, THRESHOLDS, tw)
+            s["cells"] = rs[0].get("cells")
+            s["cells_visited_mean"] = float(np.mean([r.get("cells_visited", 0) for r in rs]))
+            if stns_sum is not None:
+                s["ratio_to_stns"] = {
+                    th: (None if v is None or stns_sum["behaviours_needed_to_reach"].get(th) in (None, 0)
+                         else v / stns_sum["behaviours_needed_to_reach"][th])
+                    for th, v in s["behaviours_needed_to_reach"].items()}
+                sf = stns_sum["final_behaviours_to_goal"]
+                s["final_ratio_to_stns"] = (None if not sf or s["final_behaviours_to_goal"] is None
+                                            else s["final_behaviours_to_goal"] / sf)
+            groups[f"{g}-{lr}"] = s
+            first = first or s
+            series.append({"label": f"{g} grid, {'Q-learning' if lr == 'q' else 'model-based'} "
+                                    f"({len(rs)} sets)",
+                           "y": s["behaviours_to_goal_by_block"],
+                           "lo": s["behaviours_to_goal_by_block_q25"],
+                           "hi": s["behaviours_to_goal_by_block_q75"], "style": "--"})
+    figures: list[str] = []
+    if series:
+        _safe_figure(figures, run, plots.curve_figure, run.out / "figures" / "grid_vs_stns.png",
+                     series, f"grid baselines vs STNS on Exp. 1 (seed {p['seed']})", B)
+    summary = {k: v for k, v in (first or {}).items()}
+    summary.update(random_summary(_sorted(res, "random")))
+    summary.update({"learners": groups, "stns": stns_sum,
+                    "top_level_keys_describe": f"{p['grids'][0]}-{p['learners'][0]}",
+                    "grid_settings": {k: p[k] for k in ("gamma", "initial_value", "alpha",
+                                                        "epsilon", "sweeps")},
+                    "stop_rule": "a behaviour stops at any non-zero reward or when the cell "
+                                 "changes (or after max_ticks_per_step ticks)",
+                    "trial_set_seeds": seeds})
+    return run.finish(summary, figures)
+
+
+# ---------------------------------------------------------------------------- offline
+def run_offline(run: Run) -> dict:
+    """§7.4: behaviours that random off-line collection needs against STNS on-line."""
+    p = run.params
+    seeds = _seeds(p)
+    _write_config(run, {"sets": seeds})
+    tasks = [run.task("offline", f"set{i:02d}", i, p["steps"], s) for i, s in enumerate(seeds)]
+    res = run.tasks(tasks + run.random_tasks(), "offline")
+    sets = _sorted(res, "set")
+    summary = summarise_sets(sets, p, p["steps"]) if sets else {}
+    rnd = random_summary(_sorted(res, "random"))
+    summary.update(rnd)
+    if sets:
+        online = sum(r["online_behaviours"] for r in sets)
+        done = [r for r in sets if r["all_collected"]]
+        rand = sum(r["random_behaviours"] for r in sets)
+        pos_r = [v for r in sets for k, v in r["targets"].items() if r["target_kinds"][k] == "R"]
+        pos_t = [v for r in sets for k, v in r["targets"].items() if r["target_kinds"][k] == "T"]
+        per_set = [r["random_behaviours"] / r["online_behaviours"] for r in sets
+                   if r["online_behaviours"]]
+        mean_r = float(np.mean(pos_r)) if pos_r else None
+        mean_t = float(np.mean(pos_t)) if pos_t else None
+        bpa = rnd.get("random_behaviours_per_arrival")
+        est = None
+        if mean_r is not None and bpa:
+            est = (mean_r * bpa + (mean_t or 0.0) * 4.0) / (online / len(sets))
+        summary.update({
+            "online_steps": p["steps"],
+            "online_behaviours_mean": online / len(sets),
+            "random_behaviours_mean": rand / len(sets),
+            "sets_all_collected": len(done),
+            "ratio_measured": rand / online if online else None,
+            "ratio_measured_per_set": per_set,
+            "ratio_is_lower_bound": len(done) < len(sets),
+            "positives_r_mean": mean_r, "positives_t_mean": mean_t,
+            "ratio_paper_arithmetic": est,
+            "paper_arithmetic": "(mean R positives x random behaviours per arrival + mean T "
+                                "positives x 4) / on-line behaviours, as in §7.4",
+        })
+    summary["trial_set_seeds"] = seeds
+    return run.finish(summary, [])
+
+
+RUNNERS = {"exp1": run_learning, "exp3": run_learning, "exp2-sensor": run_exp2,
+           "exp2-actuator": run_exp2, "grid": run_grid, "offline": run_offline}

@@ -1,3 +1,0 @@
-def test_import():
-    import stns_experiments
-    assert stns_experiments.__doc__
