@@ -1,0 +1,199 @@
+"""stns_bringup --config FILE [--steps S] [--out DIR]: one command for a whole ROS run.
+
+Starts every node of the run as its own process (ros2 launch is not on PyPI; the launch file
+launch/stns.launch.py does the same for ROS installs), waits until the agent has made the
+run's behaviour steps, stops the nodes cleanly (SIGINT: the simulator closes the bag), and
+writes the run folder: bag/ (rosbag2, MCAP), summary.json, PNG plots, params.yaml,
+run_config.json, learner_state, logs/. Ctrl-C or SIGTERM stops the run early and still
+leaves a closed bag and a summary of what was recorded.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import re
+import shutil
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+from stns_ros.errors import StnsRosError
+from stns_ros.run_config import load_run_config, node_parameters, write_params_file
+
+RUN_MARK = ".stns_run"
+STOP_TIMEOUT = 15.0
+
+
+def _pdeathsig() -> None:
+    """Children die with the bring-up even if it is killed (Linux)."""
+    try:
+        import ctypes
+
+        ctypes.CDLL("libc.so.6", use_errno=True).prctl(1, signal.SIGTERM)  # PR_SET_PDEATHSIG
+    except (OSError, AttributeError):
+        pass
+
+
+class Bringup:
+    def __init__(self, cfg: dict, out: Path) -> None:
+        self.cfg = cfg
+        self.out = out
+        self.procs: dict[str, subprocess.Popen] = {}
+        self.logs: dict[str, object] = {}
+        self.stop_requested = False
+
+    def prepare(self) -> Path:
+        out = self.out
+        if out.exists():
+            if not (out / RUN_MARK).exists():
+                raise StnsRosError(
+                    f"--out {str(out)!r} exists and is not an stns run folder; not overwriting")
+            shutil.rmtree(out)
+        (out / "logs").mkdir(parents=True)
+        (out / RUN_MARK).write_text("stns_bringup run folder (replaced by the next run here)\n")
+        run_json = json.dumps(self.cfg, sort_keys=True)
+        (out / "run_config.json").write_text(json.dumps(self.cfg, indent=2, sort_keys=True))
+        params = node_parameters(self.cfg, out.resolve(), run_json)
+        params["stns_agent"]["stats_out"] = str((out / "agent_stats.json").resolve())
+        params["stns_agent"]["wait_for_recorder"] = bool(self.cfg["recording"]["enabled"])
+        path = out / "params.yaml"
+        write_params_file(params, path)
+        return path
+
+    def start(self, name: str, module: str, params: Path) -> None:
+        log = open(self.out / "logs" / f"{name}.log", "w")  # noqa: SIM115 - closed in stop_all
+        self.logs[name] = log
+        self.procs[name] = subprocess.Popen(
+            [sys.executable, "-m", f"stns_ros.{module}", "--ros-args", "--params-file", str(params)],
+            stdout=log, stderr=subprocess.STDOUT, start_new_session=True, preexec_fn=_pdeathsig,
+        )
+
+    def stop(self, name: str) -> int | None:
+        proc = self.procs.get(name)
+        if proc is None:
+            return None
+        if proc.poll() is None:
+            proc.send_signal(signal.SIGINT)
+            try:
+                proc.wait(STOP_TIMEOUT)
+            except subprocess.TimeoutExpired:
+                proc.terminate()
+                try:
+                    proc.wait(5)
+                except subprocess.TimeoutExpired:
+                    proc.kill()
+                    proc.wait()
+        return proc.returncode
+
+    def stop_all(self) -> None:
+        for name in ("stns_agent", "fault_injector", "rover_sim"):
+            self.stop(name)
+        for log in self.logs.values():
+            log.close()
+
+    def progress(self, total: int) -> str | None:
+        try:
+            text = (self.out / "logs" / "stns_agent.log").read_text(errors="replace")
+        except OSError:
+            return None
+        found = re.findall(r"progress (\d+)/(\d+)", text)
+        return f"{found[-1][0]}/{total} behaviour steps" if found else None
+
+
+def run(cfg: dict, out: Path, quiet: bool = False) -> int:
+    b = Bringup(cfg, out)
+    params = b.prepare()
+
+    def on_signal(signum, frame):  # noqa: ARG001
+        b.stop_requested = True
+
+    old = {s: signal.signal(s, on_signal) for s in (signal.SIGINT, signal.SIGTERM)}
+    rc = 0
+    t0 = time.monotonic()
+    try:
+        b.start("rover_sim", "sim_node", params)
+        if cfg["faults"]["faults"]:
+            b.start("fault_injector", "fault_injector_node", params)
+        b.start("stns_agent", "agent_node", params)
+        last_report = 0.0
+        while not b.stop_requested:
+            agent_rc = b.procs["stns_agent"].poll()
+            if agent_rc is not None:
+                if agent_rc != 0:
+                    rc = 1
+                    sys.stderr.write(f"stns_bringup: stns_agent_node exited with {agent_rc}; "
+                                     f"see {out / 'logs' / 'stns_agent.log'}\n")
+                break
+            dead = [n for n, p in b.procs.items() if p.poll() is not None]
+            if dead:
+                rc = 1
+                sys.stderr.write(f"stns_bringup: {', '.join(dead)} stopped early; see "
+                                 f"{out / 'logs'}\n")
+                break
+            now = time.monotonic()
+            if not quiet and now - last_report > 5.0:
+                last_report = now
+                p = b.progress(cfg["run"]["steps"])
+                if p:
+                    sys.stderr.write(f"[stns_bringup] {p}, {now - t0:.0f} s\n")
+            time.sleep(0.1)
+        if b.stop_requested:
+            sys.stderr.write("stns_bringup: stopping on request; the bag is being closed\n")
+            rc = 130
+        else:
+            time.sleep(0.5)  # the last explanation messages reach the recorder
+    finally:
+        b.stop_all()
+        for s, h in old.items():
+            signal.signal(s, h)
+    return finish(cfg, out, rc, quiet)
+
+
+def finish(cfg: dict, out: Path, rc: int, quiet: bool) -> int:
+    from stns_ros.summary import format_summary, load_run, summarize, write_plots
+
+    bag = out / "bag"
+    if not cfg["recording"]["enabled"] or not bag.exists():
+        sys.stderr.write("stns_bringup: no bag recorded, no summary\n")
+        return rc or 0
+    run_data = load_run(bag)
+    summary = summarize(run_data, bag)
+    stats_path = out / "agent_stats.json"
+    if stats_path.exists():
+        summary.update(json.loads(stats_path.read_text()))
+    (out / "summary.json").write_text(json.dumps(summary, indent=2, sort_keys=True))
+    plots = write_plots(run_data, summary, out)
+    print(format_summary(summary))
+    print(f"run folder: {out}")
+    print(f"  bag:      {bag} (play: stns_replay {bag}; ros2 bag info {bag})")
+    print(f"  summary:  {out / 'summary.json'}")
+    for p in plots:
+        print(f"  plot:     {p}")
+    return rc
+
+
+def main(args=None) -> None:
+    parser = argparse.ArgumentParser(prog="stns_bringup", description=__doc__.splitlines()[0])
+    parser.add_argument("--config", required=True, help="run config YAML (config/default.yaml)")
+    parser.add_argument("--steps", type=int, help="behaviour steps (overrides run.steps)")
+    parser.add_argument("--out", help="run folder (default runs/<run.name>)")
+    parser.add_argument("--quiet", action="store_true", help="no progress lines")
+    ns = parser.parse_args(args)
+    try:
+        cfg = load_run_config(ns.config)
+        if ns.steps is not None:
+            if ns.steps < 1:
+                raise StnsRosError(f"--steps must be >= 1, got {ns.steps}")
+            cfg["run"]["steps"] = ns.steps
+        out = Path(ns.out or os.path.join("runs", cfg["run"]["name"]))
+        sys.exit(run(cfg, out, ns.quiet))
+    except StnsRosError as e:
+        sys.exit(f"stns_bringup: error: {e}")
+
+
+if __name__ == "__main__":
+    main()

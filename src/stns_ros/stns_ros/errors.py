@@ -1,0 +1,5 @@
+"""The one root exception of stns_ros."""
+
+
+class StnsRosError(Exception):
+    """A bad config, scenario, parameter or bag; the message names the offending value."""

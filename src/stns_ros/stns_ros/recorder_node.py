@@ -1,0 +1,76 @@
+"""stns_recorder: a stand-alone recorder node (records topics into a rosbag2/MCAP directory).
+
+The bring-up records inside the simulator process (no second DDS hop for the per-tick
+topics); this node records any run or any set of topics from outside, like ``ros2 bag
+record``. Topic types come from the run's table (`topics.TYPES`) or ``types``
+("topic=pkg/msg/Type" entries). Log times are the node's clock (sim time with
+use_sim_time). SIGINT/SIGTERM close the bag; a SIGKILL leaves a readable prefix.
+"""
+
+from __future__ import annotations
+
+import sys
+
+import rclpy
+from rclpy.executors import ExternalShutdownException
+from rclpy.node import Node
+
+from stns_ros import topics as T
+from stns_ros.errors import StnsRosError
+from stns_ros.params import declare
+from stns_ros.recording import TopicRecorder
+from stns_ros.runtime import spin
+
+
+class RecorderNode(Node):
+    def __init__(self, **kwargs) -> None:
+        super().__init__("stns_recorder", **kwargs)
+        output = declare(self, "output", "", "rosbag2 directory to create.", read_only=True)
+        topics = declare(self, "topics", list(T.TYPES), "Topics to record.", read_only=True)
+        types = declare(self, "types", [""], "Extra 'topic=pkg/msg/Type' entries.",
+                        read_only=True)
+        compression = declare(self, "compression", "zstd", "MCAP chunk compression.",
+                              choices=("zstd", "lz4", "none"), read_only=True)
+        chunk = declare(self, "chunk_size", 262144, "MCAP chunk size, bytes.",
+                        range=(1024, 2**26), read_only=True)
+        if not output:
+            raise StnsRosError("parameter output (the bag directory) is required")
+        extra = {}
+        for entry in types:
+            if not entry:
+                continue
+            topic, sep, msgtype = entry.partition("=")
+            if not sep:
+                raise StnsRosError(f"types entry must be topic=pkg/msg/Type, got {entry!r}")
+            extra[topic] = msgtype
+        unknown = [t for t in topics if t not in T.TYPES and t not in extra]
+        if unknown:
+            raise StnsRosError(f"no type known for topic(s) {unknown}; add them to 'types'")
+        self.recorder = TopicRecorder(self, output, log_time=lambda: self.get_clock().now().nanoseconds,
+                                      compression=compression, chunk_size=chunk)
+        self.recorder.subscribe(topics, extra)
+        self.get_logger().info(f"recording {len(topics)} topics into {output}")
+
+    def close(self) -> None:
+        self.recorder.close()
+
+
+def main(args=None) -> None:
+    rclpy.init(args=args)
+    node = None
+    try:
+        node = RecorderNode()
+        spin(node)
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass
+    except StnsRosError as e:
+        sys.exit(f"stns_recorder: {e}")
+    finally:
+        if node is not None:
+            node.close()
+            node.destroy_node()
+        rclpy.try_shutdown()
+
+
+if __name__ == "__main__":
+    main()
