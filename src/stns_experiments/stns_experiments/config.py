@@ -173,9 +173,11 @@ def validate(exp: str, params: Mapping[str, Any]) -> dict[str, Any]:
         if not isinstance(levels, list) or not levels:
             raise ExperimentError(f"levels must be a non-empty list, got {levels!r}")
         if p["fault"] == "left_wheel_slowdown_pct":
-            p["levels"] = [_num("levels[]", v, 0.0, 100.0) for v in levels]
-            if any(v >= 100.0 for v in p["levels"]):
-                raise ExperimentError(f"levels: a slowdown must be below 100 %, got {levels!r}")
+            p["levels"] = [_num("levels[]", v) for v in levels]
+            bad = [v for v in levels if not 0.0 <= v < 100.0]
+            if bad:
+                raise ExperimentError(
+                    f"levels: a slowdown must be in [0, 100) %, got {bad[0]!r}")
         else:
             p["levels"] = [_num("levels[]", v, -360.0, 360.0) for v in levels]
         p["scratch"] = _bool("scratch", p["scratch"])

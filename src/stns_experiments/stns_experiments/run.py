@@ -93,6 +93,7 @@ class Run:
                 f"level (last {p['final_window']} steps); value = steps before that block. "
                 f"convergence_step_trailing: first block end from which the trailing "
                 f"{p['trailing_window']}-step window stays within the same band."),
+            "code_version": code_version(),
             "interrupted": self.interrupted,
             "errors": self.errors,
             "figures": figures,
@@ -100,6 +101,27 @@ class Run:
         })
         write_json(self.out / "summary.json", summary)
         return summary
+
+
+def code_version() -> dict[str, Any]:
+    """Git commit of the workspace and whether the two libraries had uncommitted changes."""
+    import subprocess
+
+    ws = Path(__file__).resolve()
+    for d in ws.parents:
+        if (d / ".git").exists():
+            break
+    else:
+        return {}
+    try:
+        head = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=d, capture_output=True,
+                              text=True, timeout=10).stdout.strip()
+        dirty = subprocess.run(["git", "status", "--porcelain", "src/stns_core", "src/rover_sim",
+                                "src/stns_experiments"], cwd=d, capture_output=True, text=True,
+                               timeout=10).stdout.split("\n")
+    except (OSError, subprocess.SubprocessError):
+        return {}
+    return {"commit": head, "uncommitted": [ln[3:] for ln in dirty if ln.strip()]}
 
 
 def _seeds(params: dict, stream: int = STREAM_LEARNER) -> list[dict]:

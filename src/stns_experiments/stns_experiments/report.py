@@ -1,0 +1,150 @@
+"""Markdown tables from run folders, for docs/RESULTS.md.
+
+    python -m stns_experiments.report runs/exp1-full [runs/exp2-sensor ...]
+
+Prints, for each folder, the summary's figures beside the paper's with the exact command
+that produced them (taken from summary.json), so the report is never typed by hand.
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+
+
+def _pct(v) -> str:
+    return "-" if v is None else f"{100 * v:.1f} %"
+
+
+def _num(v, nd: int = 2) -> str:
+    if v is None:
+        return "-"
+    if isinstance(v, int):
+        return str(v)
+    return f"{v:.{nd}f}"
+
+
+def learning_table(s: dict) -> str:
+    paper = s.get("paper", {})
+    rows = [
+        ("convergence (block rule), steps", _num(paper.get("convergence_step")),
+         _num(s.get("convergence_step"))),
+        ("convergence (trailing 500-step rule), steps", "-", _num(s.get("convergence_step_trailing"))),
+        ("convergence per set, median (block / trailing)", "-",
+         f"{_num(s.get('convergence_step_per_set_median'), 0)} / "
+         f"{_num(s.get('convergence_step_trailing_per_set_median'), 0)}"),
+        (f"behaviours to goal, last {s.get('final_window')} steps",
+         _num(paper.get("final_behaviours_to_goal")), _num(s.get("final_behaviours_to_goal"))),
+        ("success from R situations", _pct(paper.get("success_rate_r")), _pct(s.get("success_rate_r"))
+         + _counts(s.get("success_counts_r"))),
+        ("success from T situations", _pct(paper.get("success_rate_t")), _pct(s.get("success_rate_t"))
+         + _counts(s.get("success_counts_t"))),
+    ]
+    if "success_rate_t2" in s or "success_rate_t2" in paper:
+        rows += [("success from T situations 2 steps from goal", _pct(paper.get("success_rate_t2")),
+                  _pct(s.get("success_rate_t2"))),
+                 ("success from T situations 3 steps from goal", _pct(paper.get("success_rate_t3")),
+                  _pct(s.get("success_rate_t3")))]
+    rows += [
+        ("trials within two behaviours", _pct(paper.get("within_two_behaviours")),
+         _pct(s.get("within_two_behaviours")) + _counts(s.get("within_two_counts"))),
+        ("random policy: goal arrivals per 100 steps", _num(paper.get("random_arrivals_per_100")),
+         _num(s.get("random_arrivals_per_100"))),
+        ("situations at the end (mean)", "6 (optimum, Fig. 5b)" if s["experiment"] == "exp1" else "-",
+         _num(s.get("situations_final"), 1)),
+    ]
+    if s.get("first_situation_step_mean") is not None:
+        rows.append(("first situation after (steps, mean)", _num(paper.get("first_situation_step"), 1),
+                     _num(s.get("first_situation_step_mean"), 1)))
+    rows.append(("speed: behaviour steps per second per process", "-",
+                 _num(s.get("behaviour_steps_per_second"), 0)))
+    head = "| what | paper | measured |\n|---|---|---|\n"
+    return head + "\n".join(f"| {a} | {b} | {c} |" for a, b, c in rows)
+
+
+def _counts(c) -> str:
+    return "" if not c else f" ({c[0]}/{c[1]})"
+
+
+def exp2_table(s: dict) -> str:
+    head = ("| fault | relearn: final | scratch: final | relearn reaches scratch level at | "
+            "scratch at | delay (steps) | blocks worse than pre-fault | situations eliminated "
+            "(mean) | sets without elimination |\n|---|---|---|---|---|---|---|---|---|\n")
+    rows = []
+    for name, e in s.get("levels", {}).items():
+        rl, sc = e.get("relearn", {}), e.get("scratch", {})
+        rows.append(
+            f"| {name} | {_num(rl.get('final_behaviours_to_goal'))} | "
+            f"{_num(sc.get('final_behaviours_to_goal'))} | {_num(e.get('relearn_reaches_at'))} | "
+            f"{_num(e.get('scratch_reaches_at'))} | {_num(e.get('delay_steps'))} | "
+            f"{_num(e.get('blocks_worse_than_prefault'))} of {len(rl.get('behaviours_to_goal_by_block', []))} | "
+            f"{_num(e.get('eliminated_after_fault_mean'), 1)} | "
+            f"{e.get('sets_without_elimination', '-')}/{rl.get('trial_sets', '-')} |")
+    return head + "\n".join(rows)
+
+
+def grid_table(s: dict) -> str:
+    th = list((s.get("stns") or {}).get("behaviours_needed_to_reach", {}))
+    head = ("| learner | final behaviours to goal | cells visited | " +
+            " | ".join(f"behaviours to reach {t}" for t in th) + " |\n|---|---|---|" +
+            "---|" * len(th) + "\n")
+    rows = []
+    groups = dict(s.get("learners", {}))
+    if s.get("stns"):
+        groups = {"STNS": s["stns"], **groups}
+    for name, g in groups.items():
+        need = g.get("behaviours_needed_to_reach", {})
+        ratio = g.get("ratio_to_stns", {})
+        cells = g.get("cells")
+        visited = "-" if cells is None else f"{_num(g.get('cells_visited_mean'), 0)}/{cells}"
+        rows.append(f"| {name} | {_num(g.get('final_behaviours_to_goal'))} | {visited} | " + " | ".join(
+            (_num(need.get(t)) + (f" (x{ratio[t]:.1f})" if ratio.get(t) else "")) for t in th) + " |")
+    return head + "\n".join(rows)
+
+
+def offline_table(s: dict) -> str:
+    rows = [
+        ("on-line steps (STNS)", "1200", _num(s.get("online_steps"))),
+        ("on-line behaviours (mean)", "967.9", _num(s.get("online_behaviours_mean"), 1)),
+        ("positives per R situation (mean)", "225.5", _num(s.get("positives_r_mean"), 1)),
+        ("positives per T situation (mean)", "212.7", _num(s.get("positives_t_mean"), 1)),
+        ("random behaviours to collect as many (mean)", "11694 (estimate)",
+         _num(s.get("random_behaviours_mean"), 0)),
+        ("ratio, measured (random / on-line behaviours)", "12.1",
+         _num(s.get("ratio_measured"), 1) + (" (lower bound)" if s.get("ratio_is_lower_bound") else "")),
+        ("ratio by the paper's arithmetic, our rates", "12.1", _num(s.get("ratio_paper_arithmetic"), 1)),
+    ]
+    head = "| what | paper | measured |\n|---|---|---|\n"
+    return head + "\n".join(f"| {a} | {b} | {c} |" for a, b, c in rows)
+
+
+def describe(folder: Path) -> str:
+    s = json.loads((folder / "summary.json").read_text())
+    exp = s["experiment"]
+    lines = [f"### {exp}: `{folder}`", "",
+             f"Command: `{s.get('command')}` (seed {s.get('seed')}, {s.get('trial_sets')} trial "
+             f"sets x {s.get('steps')} steps; wall {s.get('wall_seconds', 0):.0f} s"
+             + ("; INTERRUPTED" if s.get("interrupted") else "") + ")", ""]
+    if exp in ("exp1", "exp3"):
+        lines.append(learning_table(s))
+    elif exp.startswith("exp2"):
+        lines.append(exp2_table(s))
+    elif exp == "grid":
+        lines.append(grid_table(s))
+    elif exp == "offline":
+        lines.append(offline_table(s))
+    if s.get("errors"):
+        lines += ["", f"Errors: {s['errors']}"]
+    return "\n".join(lines) + "\n"
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = sys.argv[1:] if argv is None else argv
+    for a in args:
+        sys.stdout.write(describe(Path(a)) + "\n")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

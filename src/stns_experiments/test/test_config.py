@@ -1,0 +1,107 @@
+"""Parameters: presets, YAML files, validation errors naming the value, CLI exit codes."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+from stns_experiments.cli import main
+from stns_experiments.config import (
+    DEFAULTS,
+    EXPERIMENTS,
+    ExperimentError,
+    parse_set,
+    resolve,
+    validate,
+)
+
+WS_CONFIG = Path(__file__).resolve().parents[3] / "config"
+
+
+@pytest.mark.parametrize("exp", EXPERIMENTS)
+def test_workspace_yaml_files_are_valid_and_match_the_presets(exp):
+    path = WS_CONFIG / f"{exp}.yaml"
+    assert path.is_file(), path
+    p = resolve(exp, path)
+    d = validate(exp, DEFAULTS[exp])
+    for key, value in d.items():
+        assert p[key] == value, key
+
+
+def test_paper_numbers_in_presets():
+    assert DEFAULTS["exp1"]["trial_sets"] == 20 and DEFAULTS["exp1"]["steps"] == 10000
+    assert DEFAULTS["exp2-sensor"]["levels"] == [10, 15, 20, 25, 90, 180]
+    assert DEFAULTS["exp2-actuator"]["levels"] == [5, 10, 15]
+    assert DEFAULTS["exp2-sensor"]["block_size"] == 250
+    assert DEFAULTS["exp3"]["steps"] == 28000
+
+
+@pytest.mark.parametrize(("text", "match"), [
+    ("trial_sets: 0\n", r"trial_sets must be in \[1, 10000\], got 0"),
+    ("steps: ten\n", r"steps must be an integer, got 'ten'"),
+    ("steps: 1.5\n", r"steps must be an integer, got 1.5"),
+    ("seed: -3\n", r"seed must be in .*got -3"),
+    ("bogus: 1\n", r"unknown key\(s\) \['bogus'\]"),
+    ("world: exp1\n", r"world must be a mapping"),
+    ("agent: {preset: exp1, extra: 1}\n", r"unknown key\(s\) \['extra'\] in agent"),
+    ("experiment: exp3\n", r"the file is for 'exp3', not 'exp1'"),
+    ("convergence_tol: 0\n", r"convergence_tol must be > 0.0, got 0"),
+    ("- a\n- b\n", r"must hold a mapping, got list"),
+    ("steps: [1, \n", r"is not valid YAML"),
+])
+def test_bad_yaml_values_name_the_value(tmp_path, text, match):
+    f = tmp_path / "bad.yaml"
+    f.write_text(text)
+    with pytest.raises(ExperimentError, match=match):
+        resolve("exp1", f)
+
+
+def test_exp2_and_grid_values_are_checked(tmp_path):
+    f = tmp_path / "x.yaml"
+    f.write_text("levels: [5, 120]\n")
+    with pytest.raises(ExperimentError, match=r"a slowdown must be in \[0, 100\) %, got 120"):
+        resolve("exp2-actuator", f)
+    f.write_text("fault: wheel\n")
+    with pytest.raises(ExperimentError, match=r"fault must be one of .* got 'wheel'"):
+        resolve("exp2-sensor", f)
+    f.write_text("grids: [hex]\n")
+    with pytest.raises(ExperimentError, match=r"grids must be .* got \['hex'\]"):
+        resolve("grid", f)
+    f.write_text("gamma: 1.5\n")
+    with pytest.raises(ExperimentError, match=r"gamma must be <= 1.0, got 1.5"):
+        resolve("grid", f)
+
+
+def test_missing_file_and_overrides(tmp_path):
+    with pytest.raises(ExperimentError, match=r"cannot read config file .*nope.yaml"):
+        resolve("exp1", tmp_path / "nope.yaml")
+    p = resolve("exp1", None, use_workspace_file=False,
+                overrides={"steps": 50, "agent": {"overrides": {"gamma": 0.5}}})
+    assert p["steps"] == 50 and p["agent"] == {"preset": "exp1", "overrides": {"gamma": 0.5}}
+    assert p["final_window"] == 50  # clipped to the run length
+    assert parse_set("agent.overrides.p_min=0.2") == (["agent", "overrides", "p_min"], 0.2)
+    with pytest.raises(ExperimentError, match=r"--set expects KEY=VALUE, got 'oops'"):
+        parse_set("oops")
+
+
+@pytest.mark.parametrize(("argv", "match"), [
+    (["exp9"], "invalid choice: 'exp9'"),
+    (["exp1", "--trial-sets", "0"], "--trial-sets must be >= 1, got '0'"),
+    (["exp1", "--steps", "abc"], "--steps must be an integer, got 'abc'"),
+    (["exp1", "--seed", "-1"], "--seed must be >= 0, got '-1'"),
+    (["exp1", "--config", "/nonexistent.yaml"], "--config: no such file '/nonexistent.yaml'"),
+    (["exp1", "--from", "/tmp"], "--from applies to exp2-sensor, exp2-actuator and grid"),
+    (["exp1", "--set", "steps=0"], "steps must be in|steps must be >= 1, got 0"),
+    (["exp1", "--set", "agent.overrides.gamma=7"], "agent: "),
+    (["exp1", "--set", "world.overrides.room_size=-1"], "world: "),
+    (["exp2-sensor", "--from", "/nonexistent"], "--from: no such directory '/nonexistent'"),
+])
+def test_cli_bad_arguments_exit_2_with_message(argv, match, capsys):
+    with pytest.raises(SystemExit) as exc:
+        code = main(argv)
+        raise SystemExit(code)
+    assert exc.value.code == 2
+    err = capsys.readouterr().err
+    assert "Traceback" not in err
+    import re
+    assert re.search(match, err), err

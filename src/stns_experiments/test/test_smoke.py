@@ -1,0 +1,75 @@
+"""Short smoke runs of every experiment through the command line (1 trial set, jobs 1)."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+from stns_experiments.cli import main
+from stns_experiments.run import SUMMARY_KEYS
+
+pytest.importorskip("rover_sim")
+pytest.importorskip("stns_core")
+
+SMALL = ["--trial-sets", "1", "--jobs", "1", "--quiet", "--set", "random_steps=60"]
+
+
+def _run(tmp_path, argv):
+    out = tmp_path / "out"
+    code = main(argv + ["--out", str(out)])
+    assert code == 0
+    summary = json.loads((out / "summary.json").read_text())
+    missing = [k for k in SUMMARY_KEYS if k not in summary]
+    assert not missing, missing
+    assert summary["errors"] == {}
+    return out, summary
+
+
+def test_smoke_exp1(tmp_path):
+    out, s = _run(tmp_path, ["exp1", "--steps", "300", "--seed", "3"] + SMALL)
+    assert s["experiment"] == "exp1" and s["steps"] == 300 and s["trial_sets"] == 1
+    assert len(s["behaviours_to_goal_by_block"]) == 3
+    assert (out / "records" / "set00.csv.gz").exists() and (out / "states" / "set00.npz").exists()
+    assert s["random_arrivals_per_100"] is not None
+    assert any(f.endswith(".png") for f in s["figures"])
+    assert s["behaviour_steps_per_second"] > 0
+
+
+def test_smoke_exp1_same_seed_same_records(tmp_path):
+    a = _run(tmp_path / "a", ["exp1", "--steps", "120", "--no-figures"] + SMALL)[0]
+    b = _run(tmp_path / "b", ["exp1", "--steps", "120", "--no-figures"] + SMALL)[0]
+    import gzip
+    ra = gzip.open(a / "records" / "set00.csv.gz", "rt").read()
+    rb = gzip.open(b / "records" / "set00.csv.gz", "rt").read()
+    assert ra == rb
+
+
+@pytest.mark.parametrize("exp,level", [("exp2-sensor", "20"), ("exp2-actuator", "10")])
+def test_smoke_exp2(tmp_path, exp, level):
+    out, s = _run(tmp_path, [exp, "--steps", "100", "--levels", level, "--no-figures",
+                             "--set", "pretrain_steps=150"] + SMALL)
+    (entry,) = s["levels"].values()
+    assert entry["relearn"]["trial_sets"] == 1 and entry["scratch"]["trial_sets"] == 1
+    assert "delay_steps" in entry and "eliminated_after_fault_mean" in entry
+    # --from reuses the pre-trained learners
+    out2 = tmp_path / "again"
+    assert main([exp, "--steps", "100", "--levels", level, "--no-figures", "--from",
+                 str(out / "base"), "--out", str(out2)] + SMALL) == 0
+
+
+def test_smoke_exp3(tmp_path):
+    _, s = _run(tmp_path, ["exp3", "--steps", "100", "--no-figures"] + SMALL)
+    assert s["experiment"] == "exp3"
+
+
+def test_smoke_offline(tmp_path):
+    _, s = _run(tmp_path, ["offline", "--steps", "300", "--set", "max_random_behaviours=2000"]
+                + SMALL)
+    assert s["online_behaviours_mean"] > 0 and s["random_behaviours_mean"] > 0
+
+
+def test_smoke_grid(tmp_path):
+    _, s = _run(tmp_path, ["grid", "--steps", "200"] + SMALL)
+    assert set(s["learners"]) == {"polar-q", "polar-model", "orthogonal-q", "orthogonal-model"}
+    assert s["stns"]["trial_sets"] == 1
+    assert "grid_vs_stns.png" in " ".join(s["figures"])
