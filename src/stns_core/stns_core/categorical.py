@@ -204,13 +204,14 @@ class Learner:
         if big.any():
             keys = np.round(h.reward[big], 6)
             bs = h.b[big]
-            pairs, counts = np.unique(np.stack([bs.astype(float), keys], axis=1), axis=0,
-                                      return_counts=True)
-            rank = sorted(range(len(pairs)), key=lambda k: (-counts[k], pairs[k][0], pairs[k][1]))
-            for k in rank:
-                b, key = int(pairs[k][0]), float(pairs[k][1])
-                if counts[k] > cfg.n_init_r and not self._exists((R_KIND, b, key)):
-                    self._new_situation(R_KIND, b, 0, key, int(counts[k]))
+            cands = []
+            for key in np.unique(keys).tolist():
+                per_b = np.bincount(bs[keys == key], minlength=self.n_behaviours)
+                cands += [(-int(c), b, key) for b, c in enumerate(per_b.tolist())
+                          if c > cfg.n_init_r]
+            for neg_count, b, key in sorted(cands):
+                if not self._exists((R_KIND, b, key)):
+                    self._new_situation(R_KIND, b, 0, key, -neg_count)
                     return True
         if not self.order:
             return False

@@ -35,6 +35,44 @@ class Iprl:
         self.n_max = n_max
         self.memo: dict[tuple[int, int], list] | None = {} if memo else None
         self.expansions = 0
+        goal = stn.goal
+        # Per node: [(b, [(j, p, r, p * r, threshold), ...]), ...] for the tried behaviours.
+        # A successor j is expanded iff j is not the goal and prob > threshold = p_min / p.
+        self._nodes: list[list[tuple[int, list[tuple]]]] = []
+        self._untried: list[bool] = []
+        # Value of a node none of whose successors is expanded (depth limit, or
+        # prob <= _all_pruned[i]): independent of prob.
+        self._leaf: list[tuple[float, Plan]] = []
+        self._all_pruned: list[float] = []
+        for row in stn.successors:
+            node = []
+            untried = False
+            best_u, best_plan = -math.inf, ()
+            max_p = 0.0
+            for b, succ in enumerate(row):
+                if succ is None:
+                    untried = True
+                    continue
+                elems = []
+                total, best_term, best_j = 0.0, -math.inf, -1
+                for j, p, r in succ:
+                    thr = p_min / p if j != goal else math.inf
+                    if j != goal:
+                        max_p = max(max_p, p)
+                    elems.append((j, p, r, p * r, thr))
+                    term = p * (r + gamma * 0.0)
+                    total += term
+                    if term > best_term:
+                        best_term, best_j = term, j
+                node.append((b, elems))
+                if total > best_u:
+                    best_u, best_plan = total, ((b, best_j),)
+            if best_u == -math.inf or (untried and best_u < 0.0):
+                best_u, best_plan = 0.0, ()
+            self._nodes.append(node)
+            self._untried.append(untried)
+            self._leaf.append((best_u, best_plan))
+            self._all_pruned.append(p_min / max_p if max_p > 0.0 else math.inf)
 
     def plan(self, root: int) -> tuple[float, Plan]:
         """(utility of ``root``, master plan) with node indices of the STN."""
@@ -42,38 +80,43 @@ class Iprl:
         return u, plan
 
     def _expand(self, i: int, k: int, prob: float):
+        if k + 1 >= self.n_max:
+            u, plan = self._leaf[i]
+            return u, plan, 0.0, math.inf
+        if prob <= self._all_pruned[i]:
+            u, plan = self._leaf[i]
+            return u, plan, 0.0, self._all_pruned[i]
         memo = self.memo
         if memo is not None:
-            for lo, hi, u, plan in memo.get((i, k), ()):
-                if lo < prob <= hi:
-                    return u, plan, lo, hi
+            entries = memo.get((i, k))
+            if entries is not None:
+                for lo, hi, u, plan in entries:
+                    if lo < prob <= hi:
+                        return u, plan, lo, hi
         self.expansions += 1
-        stn = self.stn
-        gamma, p_min = self.gamma, self.p_min
-        leaf_children = k + 1 >= self.n_max
-        goal = stn.goal
+        gamma = self.gamma
         lo, hi = 0.0, math.inf
         best_u = -math.inf
         best_plan: Plan = ()
-        untried = False
-        for b, succ in enumerate(stn.successors[i]):
-            if succ is None:
-                untried = True
-                continue
+        for b, elems in self._nodes[i]:
             total = 0.0
             best_term = -math.inf
             best_elem: Plan = ()
-            for j, p, r in succ:
-                u_j = 0.0
-                sub: Plan = ()
-                if j != goal and not leaf_children:
-                    if prob * p > p_min:
-                        u_j, sub, clo, chi = self._expand(j, k + 1, prob * p)
-                        lo = max(lo, p_min / p, clo / p)
-                        hi = min(hi, chi / p)
-                    else:
-                        hi = min(hi, p_min / p)
-                term = p * (r + gamma * u_j)
+            for j, p, r, pr, thr in elems:
+                if prob > thr:
+                    u_j, sub, clo, chi = self._expand(j, k + 1, prob * p)
+                    if thr > lo:
+                        lo = thr
+                    if clo / p > lo:
+                        lo = clo / p
+                    if chi / p < hi:
+                        hi = chi / p
+                    term = p * (r + gamma * u_j)
+                else:
+                    if thr < hi:
+                        hi = thr
+                    sub = ()
+                    term = pr
                 total += term
                 if term > best_term:
                     best_term = term
@@ -81,7 +124,7 @@ class Iprl:
             if total > best_u:
                 best_u = total
                 best_plan = best_elem
-        if best_u == -math.inf or (untried and best_u < 0.0):
+        if best_u == -math.inf or (self._untried[i] and best_u < 0.0):
             best_u, best_plan = 0.0, ()
         if memo is not None:
             memo.setdefault((i, k), []).append((lo, hi, best_u, best_plan))

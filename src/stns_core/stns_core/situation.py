@@ -10,27 +10,31 @@ belongs if the nearest instance is positive.
 from __future__ import annotations
 
 import numpy as np
-from scipy.linalg import solve_triangular
 
 R_KIND = "R"
 T_KIND = "T"
 BOUNDARY_TOL = 1e-9  # relative: the farthest positive instance itself is inside
 
 
-def regularised_cov(points: np.ndarray, cov_reg: float) -> np.ndarray:
+def regularised_cov(points: np.ndarray, cov_reg: float, mean: np.ndarray | None = None
+                    ) -> np.ndarray:
     """Sample covariance plus ``cov_reg * trace/d`` (and a tiny absolute floor) on the diagonal.
 
     Positive definite for any number of points (even one, or collinear ones), so a Cholesky
     factorisation always exists and no singular matrix is ever inverted.
     """
     n, d = points.shape
+    if mean is None:
+        mean = points.mean(axis=0)
     if n > 1:
-        cov = np.cov(points, rowvar=False, ddof=1).reshape(d, d)
+        c = points - mean
+        cov = (c.T @ c) / (n - 1)
     else:
         cov = np.zeros((d, d))
     scale = float(np.trace(cov)) / d
-    eps = cov_reg * scale + 1e-9 * (1.0 + float(np.mean(points * points)) if n else 1.0)
-    return cov + eps * np.eye(d)
+    eps = cov_reg * scale + 1e-9 * (1.0 + float(mean @ mean) / d)
+    cov[np.diag_indices(d)] += eps
+    return cov
 
 
 class Situation:
@@ -98,7 +102,7 @@ class Situation:
             self.fitted = False
             return
         self.mean = pts.mean(axis=0)
-        self.cov = regularised_cov(pts, cov_reg)
+        self.cov = regularised_cov(pts, cov_reg, self.mean)
         self._derive_factors()
         z = (pts - self.mean) @ self.whiten.T
         self.boundary = float(np.sqrt(np.max(np.einsum("ij,ij->i", z, z))))
@@ -106,7 +110,8 @@ class Situation:
 
     def _derive_factors(self) -> None:
         chol = np.linalg.cholesky(self.cov)
-        self.whiten = solve_triangular(chol, np.eye(len(self.cov)), lower=True)
+        # inverse of the lower Cholesky factor: z = whiten @ (x - mean), |z|^2 = Mahalanobis^2
+        self.whiten = np.linalg.inv(chol)
         self.std = np.sqrt(np.diag(self.cov))
 
     def set_shape(self, mean, cov, boundary, fitted) -> None:

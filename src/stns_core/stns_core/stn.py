@@ -28,17 +28,24 @@ class Stn:
             self.r = np.where(self.counts > 0,
                               self.reward_sums / np.where(self.counts > 0, self.counts, 1), 0.0)
         self.tried = totals[:, :, 0] > 0
-        # successors[i][b] = list of (j, p, r) in node order, or None when b is untried in i
-        self.successors: list[list[list[tuple[int, float, float]] | None]] = []
-        for i in range(n):
-            row: list[list[tuple[int, float, float]] | None] = []
-            for b in range(nb):
-                if not self.tried[i, b]:
-                    row.append(None)
-                    continue
-                js = np.flatnonzero(self.counts[i, b] > 0)
-                row.append([(int(j), float(self.p[i, b, j]), float(self.r[i, b, j])) for j in js])
-            self.successors.append(row)
+        self._successors: list | None = None
+
+    @property
+    def successors(self) -> list[list[list[tuple[int, float, float]] | None]]:
+        """successors[i][b] = [(j, p, r), ...] in node order, or None when b is untried in i."""
+        if self._successors is None:
+            n, nb = self.n_nodes, self.n_behaviours
+            table: list[list] = [[None] * nb for _ in range(n)]
+            ii, bb, jj = np.nonzero(self.counts > 0)
+            ps = self.p[ii, bb, jj].tolist()
+            rs = self.r[ii, bb, jj].tolist()
+            for i, b, j, p, r in zip(ii.tolist(), bb.tolist(), jj.tolist(), ps, rs, strict=True):
+                row = table[i][b]
+                if row is None:
+                    row = table[i][b] = []
+                row.append((j, p, r))
+            self._successors = table
+        return self._successors
 
     @classmethod
     def from_records(cls, s: np.ndarray, b: np.ndarray, s_next: np.ndarray,

@@ -4,9 +4,9 @@ import json
 
 import numpy as np
 import pytest
+from stns_core.toyworld import KinematicRover, run_learning
 
 from stns_core import StepRecord, StnsAgent, StnsConfig
-from stns_core.toyworld import KinematicRover, run_learning
 
 
 def test_tick_protocol_records_and_arrival():
