@@ -20,6 +20,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from rover_sim.config import POST_COLLISION_RULES, TASKS, WorldConfig
+from rover_sim.errors import RoverSimError
 from rover_sim.world import RoverWorld
 
 PAPER_RATES: dict[str, float] = {"exp1": 2.04, "exp3": 1.34}
@@ -69,6 +70,23 @@ def random_policy_run(
     return RandomPolicyResult(seed, done, arrivals, ticks, collisions, over_rotations)
 
 
+def _parse_override(item: str, parser: argparse.ArgumentParser) -> tuple[str, object]:
+    key, sep, text = item.partition("=")
+    if not sep or not key:
+        parser.error(f"--set needs FIELD=VALUE, got {item!r}")
+    value: object
+    if text.lower() in ("true", "false"):
+        return key.strip(), text.lower() == "true"
+    try:
+        value = int(text)
+    except ValueError:
+        try:
+            value = float(text)
+        except ValueError:
+            value = text
+    return key.strip(), value
+
+
 def main(args: Sequence[str] | None = None) -> int:
     parser = argparse.ArgumentParser(
         prog="rover-sim-calibrate",
@@ -83,7 +101,12 @@ def main(args: Sequence[str] | None = None) -> int:
         help="post-collision rule (default: the preset's)",
     )
     parser.add_argument("--max-ticks", type=int, default=500, help="tick cap per behaviour")
+    parser.add_argument(
+        "--set", action="append", default=[], metavar="FIELD=VALUE",
+        help="override a WorldConfig field (number or word), e.g. --set forward_speed=30",
+    )
     ns = parser.parse_args(args)
+    extra = dict(_parse_override(item, parser) for item in ns.set)
     if ns.seeds < 1 or ns.steps < 1:
         parser.error(f"--seeds and --steps must be >= 1, got {ns.seeds} and {ns.steps}")
     tasks = TASKS if ns.task == "all" else (ns.task,)
@@ -97,8 +120,13 @@ def main(args: Sequence[str] | None = None) -> int:
     )
     for task in tasks:
         for rule in rules:
-            overrides = {} if rule is None else {"post_collision": rule}
-            config = WorldConfig.preset(task, **overrides)
+            overrides = dict(extra)
+            if rule is not None:
+                overrides["post_collision"] = rule
+            try:
+                config = WorldConfig.preset(task, **overrides)
+            except RoverSimError as exc:
+                parser.error(str(exc))
             t0 = time.perf_counter()
             results = [
                 random_policy_run(config, seed, ns.steps, ns.max_ticks)

@@ -14,13 +14,15 @@ from dataclasses import dataclass
 from enum import IntEnum
 from typing import Any
 
+import numpy as np
+
 from rover_sim.errors import RoverSimError
 
 UNIT_M: float = 0.0625
 """Metres per world unit ``u`` (a power of two: u <-> m conversion is exact)."""
 
 TASKS: tuple[str, ...] = ("exp1", "exp3")
-POST_COLLISION_RULES: tuple[str, ...] = ("replace", "stay", "back_off")
+POST_COLLISION_RULES: tuple[str, ...] = ("replace", "undo", "stay", "back_off")
 FAULT_NAMES: tuple[str, ...] = (
     "goal_sensor_rotation_deg",
     "left_wheel_gain",
@@ -139,8 +141,10 @@ class WorldConfig:
     max_rotation_deg: float = 90.0
     """One continuous rotation beyond this angle is penalised (-1)."""
     post_collision: str = "replace"
-    """After a collision: "replace" (new random pose), "stay" (the wall stops the rover:
-    the tick's motion is undone), "back_off" (undone, then moved back_off_distance away)."""
+    """After a collision: "replace" (new random pose), "undo" (back to the pose where the
+    current motion began, i.e. the colliding behaviour is undone), "stay" (the wall stops
+    the rover: the tick's motion is undone), "back_off" (as "stay", then moved
+    back_off_distance away from the wall)."""
     back_off_distance: float = 4.0
     """Distance the "back_off" rule moves the rover back from the contact, u."""
     rays_per_sector: int = 7
@@ -155,6 +159,10 @@ class WorldConfig:
     """Initial fault: Gaussian noise on each goal coordinate, u."""
     range_sensor_noise_std: float = 0.0
     """Initial fault: Gaussian noise on each range reading, u."""
+    start_clear_of_goal: bool = True
+    """Start and re-placement poses keep the whole footprint off the goal circle (the
+    paper: "the rover is set at an arbitrary position outside of the goal"); False: only
+    the centre outside the goal radius."""
     start_margin: float = 0.0
     """Random start poses keep the whole rover this far inside walls and obstacles, u."""
 
@@ -210,7 +218,11 @@ class WorldConfig:
             if not isinstance(box, Box):
                 raise RoverSimError(f"obstacles must be Box instances, got {box!r}")
         object.__setattr__(self, "obstacles", obstacles)
-        object.__setattr__(self, "range_sensor", bool(self.range_sensor))
+        for name in ("range_sensor", "start_clear_of_goal"):
+            value = getattr(self, name)
+            if not isinstance(value, bool | np.bool_):
+                raise RoverSimError(f"{name} must be true or false, got {value!r}")
+            object.__setattr__(self, name, bool(value))
         for name in FAULT_NAMES:
             object.__setattr__(self, name, validate_fault(name, getattr(self, name)))
 

@@ -70,6 +70,17 @@ def pose_is_free(pose: Pose, config: WorldConfig, margin: float = 0.0) -> bool:
     return True
 
 
+def footprint_distance(pose: Pose, point: tuple[float, float], length: float, width: float) -> float:
+    """Distance from `point` to the rover footprint at `pose` (0 when inside), u."""
+    x, y, th = pose
+    dx, dy = point[0] - x, point[1] - y
+    c, s = math.cos(th), math.sin(th)
+    lx, ly = c * dx + s * dy, -s * dx + c * dy
+    ox = max(abs(lx) - length / 2.0, 0.0)
+    oy = max(abs(ly) - width / 2.0, 0.0)
+    return math.hypot(ox, oy)
+
+
 def sample_goal(rng: np.random.Generator, config: WorldConfig) -> tuple[float, float]:
     """The trial's goal: the fixed one, else uniform in the central goal_region square."""
     if config.goal is not None:
@@ -85,14 +96,20 @@ def sample_pose(
     goal: tuple[float, float],
     max_tries: int = 10000,
 ) -> Pose:
-    """A uniformly random free pose (whole rover in the room, off obstacles) whose centre
-    is outside the goal, with a uniformly random heading."""
+    """A uniformly random free pose (whole rover in the room, off obstacles) outside the
+    goal, with a uniformly random heading. "Outside the goal" means the whole footprint
+    is off the goal circle when `WorldConfig.start_clear_of_goal`, else only the centre."""
     half = min(config.rover_length, config.rover_width) / 2.0
     for _ in range(max_tries):
         x, y = rng.uniform(half, config.room_size - half, size=2)
         th = float(rng.uniform(-math.pi, math.pi))
         pose = (float(x), float(y), th)
         if math.hypot(x - goal[0], y - goal[1]) <= config.goal_radius:
+            continue
+        if config.start_clear_of_goal and (
+            footprint_distance(pose, goal, config.rover_length, config.rover_width)
+            <= config.goal_radius
+        ):
             continue
         if pose_is_free(pose, config, config.start_margin):
             return pose

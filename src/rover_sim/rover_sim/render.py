@@ -71,7 +71,7 @@ def render_topdown(
         ax.add_patch(Rectangle((xmin, ymin), box.sx, box.sy, fc="dimgray", ec="black",
                                label="obstacle" if i == 0 else None))
     if goal is not None:
-        ax.add_patch(Circle(goal, config.goal_radius, fc="tab:green", alpha=0.6,
+        ax.add_patch(Circle(goal, config.goal_radius, fc="tab:green", alpha=0.8, zorder=3,
                             label=f"goal (r={config.goal_radius:g})"))
     if traj.size:
         ax.plot(traj[:, 0], traj[:, 1], "-", color="tab:blue", lw=1, label="trajectory")
@@ -85,11 +85,13 @@ def render_topdown(
                 ax.add_patch(Wedge((x, y), r, math.degrees(th + a0), math.degrees(th + a1),
                                    fc=f"C{k}", alpha=0.25, ec=f"C{k}"))
                 mid = th + (a0 + a1) / 2
-                label = SECTOR_NAMES[k] if ranges is None else f"{k}: {r:.1f}"
+                label = f"{k} {SECTOR_NAMES[k]}"
+                if ranges is not None:
+                    label += f"\n{r:.1f} u"
                 ax.text(x + 0.6 * r * math.cos(mid), y + 0.6 * r * math.sin(mid), label,
                         ha="center", va="center", fontsize=8)
         corners = rover_corners(pose, config.rover_length, config.rover_width)
-        ax.add_patch(Polygon(corners, closed=True, fc="tab:orange", ec="black", label="rover"))
+        ax.add_patch(Polygon(corners, closed=True, fc="tab:orange", ec="black", alpha=0.7, label="rover"))
         ax.annotate("", xy=(x + 10 * math.cos(th), y + 10 * math.sin(th)), xytext=(x, y),
                     arrowprops={"arrowstyle": "->", "lw": 1.5})
     ax.set_xlim(-5, size + 5)
@@ -103,3 +105,40 @@ def render_topdown(
     out.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(out)
     return out
+
+
+def write_doc_pictures(out_dir: str | Path, seed: int = 0) -> list[Path]:
+    """The README's pictures: sector layout, Exp. 3 layout, an Exp. 1 random run."""
+    from rover_sim.config import WorldConfig as _Config
+
+    out = Path(out_dir)
+    paths = []
+    with RoverWorld(_Config.preset("exp1"), seed=seed) as world:
+        world.reset(options={"goal": (75.0, 70.0), "pose": (40.0, 45.0, math.radians(20))})
+        paths.append(render_topdown(world, None, out / "sectors.png", show_sectors=True,
+                                    title="Six range sectors (readings in u), rover at (40, 45), 20 deg"))
+    with RoverWorld(_Config.preset("exp3"), seed=seed) as world:
+        world.reset(options={"pose": (30.0, 50.0, 0.0)})
+        paths.append(render_topdown(world, None, out / "exp3_layout.png", show_sectors=True,
+                                    title="Exp. 3: obstacle 8 x 40 at (60, 50), goal (80, 50)"))
+    with RoverWorld(_Config.preset("exp1"), seed=seed) as world:
+        world.reset()
+        policy = np.random.default_rng([seed, 1])
+        poses = [world.pose]
+        for _ in range(40):
+            res = world.run_behaviour(int(policy.integers(4)), record=True)
+            poses.extend(res.poses)
+            if "collision" in res.events and world.config.post_collision == "replace":
+                poses.insert(-1, (float("nan"),) * 3)  # no line to the re-placed pose
+            if res.terminated:
+                break
+        paths.append(render_topdown(world, poses, out / "exp1_random.png",
+                                    title=f"Exp. 1: random behaviours until the goal ({len(poses)} ticks)"))
+    return paths
+
+
+if __name__ == "__main__":
+    import sys
+
+    for p in write_doc_pictures(sys.argv[1] if len(sys.argv) > 1 else "docs"):
+        print(p)

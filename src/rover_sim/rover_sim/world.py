@@ -104,6 +104,8 @@ class RoverWorld:
         self._trial = -1
         self._done = False
         self._motor_cmd: tuple[float, float] | None = None
+        self._segment_cmd: tuple[float, float] | None = None
+        self._segment_base: Any = None
         self._rot_sign = 0
         self._rot_acc = 0.0
         self._place((config.room_size / 2, config.room_size / 2, 0.0))
@@ -225,6 +227,9 @@ class RoverWorld:
         before_base = self._base_state
         before_depth = self._depths
 
+        if self._segment_cmd != (v, w):
+            # a new motion segment (a behaviour, seen from the world) starts here
+            self._segment_cmd, self._segment_base = (v, w), before_base
         self._drive(v, w)
         c = self._client
         for _ in range(cfg.physics_substeps):
@@ -259,6 +264,8 @@ class RoverWorld:
             events.append("goal")
             reward += GOAL_REWARD
             self._done = True
+        if reward != 0.0:
+            self._segment_cmd = None
         return self._observe(), reward, terminated, False, self._info(events)
 
     def run_behaviour(
@@ -380,6 +387,7 @@ class RoverWorld:
             c.resetJointState(rover, joint, 0.0, 0.0)
         self._read_pose()
         self._depths = penetration_depths(self._pose, self._config)
+        self._segment_cmd = None
 
     def _place(self, pose: Pose) -> None:
         x, y, th = pose
@@ -391,6 +399,9 @@ class RoverWorld:
         rule = self._config.post_collision
         if rule == "replace":
             self._place(sample_pose(self._rng, self._config, self._goal))
+            return
+        if rule == "undo":
+            self._set_base(*self._segment_base)
             return
         self._set_base(*before_base)
         if rule == "back_off":

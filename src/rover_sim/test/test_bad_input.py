@@ -62,6 +62,7 @@ def test_unknown_task_names(name):
         ("goal_sensor_noise_std", -1.0, "goal_sensor_noise_std must be >= 0, got -1.0"),
         ("goal", (150.0, 50.0), r"goal must lie inside the room, got \(150.0, 50.0\)"),
         ("goal_region", 120.0, "goal_region must fit in the room"),
+        ("start_clear_of_goal", "yes", "start_clear_of_goal must be true or false, got 'yes'"),
     ],
 )
 def test_bad_config_values(field, value, match):

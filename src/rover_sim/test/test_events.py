@@ -68,6 +68,20 @@ def test_collision_back_off_moves_rover_back(make_world):
     assert info["pose"][0] == pytest.approx(13.0, abs=0.05)
 
 
+def test_collision_undo_returns_to_where_the_motion_began(make_world):
+    world = make_world(post_collision="undo")
+    world.reset(options={"goal": (80.0, 80.0), "pose": (30.0, 50.0, math.pi)})
+    world.run_behaviour(Action.CLOCKWISE, max_ticks=2)  # another motion first
+    start = world.pose
+    out = world.run_behaviour(Action.FORWARD)
+    assert out.events == ("collision",) and out.ticks >= 5
+    assert world.pose == pytest.approx(start, abs=1e-9)
+    # a collision ends the segment: the next forward motion starts a new one from here
+    out = world.run_behaviour(Action.FORWARD)
+    assert out.events == ("collision",)
+    assert world.pose == pytest.approx(start, abs=1e-9)
+
+
 def test_obstacle_collision_is_minus_one(make_world):
     world = make_world("exp3", post_collision="stay")
     # obstacle spans x 56..64, y 30..70; drive east into it

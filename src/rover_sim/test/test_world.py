@@ -4,6 +4,7 @@ import math
 
 import numpy as np
 import pytest
+from rover_sim.geometry import footprint_distance
 
 from rover_sim import UNIT_M, Action, RoverSimError, RoverWorld, WorldConfig
 
@@ -113,10 +114,19 @@ def test_exp1_trials_draw_goal_in_centre_and_start_outside_goal(make_world):
         obs, info = world.reset()
         gx, gy = world.goal
         assert 14.0 <= gx <= 86.0 and 14.0 <= gy <= 86.0
-        assert np.hypot(*obs) > 5.0
+        # the whole footprint is off the goal circle
+        assert footprint_distance(world.pose, world.goal, 16.0, 12.0) > 5.0
         assert world._depths.max() == 0.0
         goals.append(world.goal)
     assert len(set(goals)) == 200
+    # centre-only reading: the footprint may overlap the goal, the centre never
+    near = make_world(seed=3, start_clear_of_goal=False)
+    overlaps = 0
+    for _ in range(300):
+        obs, _ = near.reset()
+        assert np.hypot(*obs) > 5.0
+        overlaps += footprint_distance(near.pose, near.goal, 16.0, 12.0) <= 5.0
+    assert overlaps > 0
     assert world.observation_dim == 2 and obs.shape == (2,) and obs.dtype == np.float64
 
 
