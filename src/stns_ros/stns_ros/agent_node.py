@@ -25,6 +25,7 @@ import rclpy
 from geometry_msgs.msg import PointStamped, TwistStamped, Vector3Stamped
 from rclpy.clock import Clock, ClockType
 from rclpy.duration import Duration
+from rclpy.exceptions import ParameterException
 from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from rclpy.parameter import Parameter
@@ -355,7 +356,7 @@ def main(args=None) -> None:
         spin(node, lambda: node.done)
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
-    except StnsRosError as e:
+    except (StnsRosError, ParameterException) as e:
         sys.exit(f"stns_agent_node: {e}")
     finally:
         if node is not None:

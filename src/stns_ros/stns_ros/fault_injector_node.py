@@ -13,6 +13,7 @@ import sys
 
 import rclpy
 from rclpy.clock import Clock, ClockType
+from rclpy.exceptions import ParameterException
 from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from rclpy.parameter import Parameter
@@ -133,7 +134,7 @@ def main(args=None) -> None:
         spin(node)
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
-    except StnsRosError as e:
+    except (StnsRosError, ParameterException) as e:
         sys.exit(f"fault_injector_node: {e}")
     finally:
         if node is not None:

@@ -12,6 +12,7 @@ from __future__ import annotations
 import sys
 
 import rclpy
+from rclpy.exceptions import ParameterException
 from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 
@@ -63,7 +64,7 @@ def main(args=None) -> None:
         spin(node)
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
-    except StnsRosError as e:
+    except (StnsRosError, ParameterException) as e:
         sys.exit(f"stns_recorder: {e}")
     finally:
         if node is not None:

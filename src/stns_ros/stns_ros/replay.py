@@ -1,3 +1,177 @@
-"""placeholder"""
-def main(args=None):
-    pass
+"""stns_replay BAG [--rate R] [--verify] [--out DIR]: replay, check and summarise a recorded run.
+
+- Republishes the bag on its topics (``--rate 1`` = the recorded sim-time rate, ``--rate 0``
+  = as fast as possible; ``--no-publish`` skips it) for Foxglove, RViz or other nodes.
+- ``--verify``: a fresh agent built from the recorded run config (learner, seeds, saved
+  state) is fed the recorded frames (observation, reward, terminated) in order; every
+  answer must equal the recorded /cmd_vel bit for bit and every finished behaviour step the
+  recorded /stns/steps record. Exit 0 with ``verify: OK`` or 1 with the first mismatch.
+- Prints the run's summary and writes its plots, from the bag alone.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from stns_ros.errors import StnsRosError
+from stns_ros.summary import RunData, format_summary, load_run, require_bag, summarize, write_plots
+
+
+class VerifyError(StnsRosError):
+    """The recorded decisions differ from a fresh agent's."""
+
+
+def _comparable(rec: dict[str, Any]) -> dict[str, Any]:
+    return {k: v for k, v in rec.items() if k != "stamp_ns"}
+
+
+def verify(run: RunData) -> str:
+    """Re-run the recorded frames through a fresh agent; raise VerifyError at the first
+    difference, return a one-line report when everything matches."""
+    from stns_core import StnsConfig
+    from stns_ros.conversion import m_to_u
+    from stns_ros.driver import (
+        AgentDriver,
+        action_velocities,
+        make_agent,
+        observation_dim,
+        record_to_dict,
+    )
+
+    cfg = run.config
+    if not cfg:
+        raise VerifyError("the bag holds no /stns/run_config: cannot rebuild the agent")
+    if cfg["run"]["mode"] != "lockstep":
+        raise VerifyError("only lockstep runs can be verified (free-running may skip frames)")
+    world, learner = cfg["world"], cfg["learner"]
+    lc = StnsConfig.preset(learner["preset"], **{**learner["overrides"], "seed": learner["seed"]})
+    dim = observation_dim(world["preset"], world["overrides"])
+    if learner["state_in"] and not Path(learner["state_in"]).exists():
+        raise VerifyError(f"the run started from {learner['state_in']!r}, which is gone")
+    driver = AgentDriver(make_agent(lc.to_dict(), dim, learner["state_in"]),
+                         action_velocities(world["preset"], world["overrides"]))
+    recorded = [_comparable(r) for r in run.steps]
+    target = len(recorded)
+    if target == 0:
+        raise VerifyError("the bag holds no behaviour steps (/stns/steps)")
+    made = 0
+    compared_cmds = 0
+    for t in sorted(run.frames):
+        f = run.frames[t]
+        if "goal" not in f or "reward" not in f or (dim == 8 and "ranges" not in f):
+            raise VerifyError(f"frame at t={t} ns is incomplete in the bag: {sorted(f)}")
+        obs = [m_to_u(f["goal"][0]), m_to_u(f["goal"][1])]
+        if dim == 8:
+            obs.extend(m_to_u(r) for r in f["ranges"])
+        reward, terminated, _ = f["reward"]
+        _, cmd, records = driver.on_frame(np.asarray(obs, dtype=np.float64), reward, terminated)
+        for rec in records:
+            mine = json.loads(json.dumps(record_to_dict(rec)))
+            if made >= target:
+                break
+            if mine != recorded[made]:
+                diff = {k: (recorded[made].get(k), mine.get(k)) for k in mine
+                        if mine.get(k) != recorded[made].get(k)}
+                raise VerifyError(
+                    f"behaviour step {made} differs at t={t / 1e9:.1f} s "
+                    f"(field: (recorded, fresh agent)): {diff}")
+            made += 1
+        if made >= target:
+            break
+        if t in run.cmds:
+            if run.cmds[t] != cmd:
+                raise VerifyError(
+                    f"command at t={t / 1e9:.1f} s differs: recorded (v={run.cmds[t][0]!r} m/s, "
+                    f"w={run.cmds[t][1]!r} rad/s), fresh agent (v={cmd[0]!r}, w={cmd[1]!r})")
+            compared_cmds += 1
+        else:
+            raise VerifyError(f"no recorded command answers the frame at t={t / 1e9:.1f} s")
+    if made < target:
+        raise VerifyError(f"the bag has {target} behaviour steps, the frames gave only {made}")
+    return (f"verify: OK: {made} behaviour steps and {compared_cmds} commands of "
+            f"{len(run.frames)} frames identical to a fresh agent's")
+
+
+def republish(bag: Path, rate: float) -> int:
+    """Publish every message of the bag on its topic, paced by the recorded log times."""
+    import rclpy
+    from rclpy.qos import QoSProfile, ReliabilityPolicy
+
+    from stns_ros import topics as T
+    from stns_ros.bag import message_class, read_messages
+    from stns_ros.recording import LATCHED_QOS
+
+    rclpy.init()
+    node = rclpy.create_node("stns_replay")
+    pubs: dict[str, Any] = {}
+    qos = QoSProfile(depth=100, reliability=ReliabilityPolicy.RELIABLE)
+    n = 0
+    try:
+        messages = list(read_messages(bag))
+        messages.sort(key=lambda m: m.log_time)
+        for m in messages:
+            if m.topic not in pubs:
+                pubs[m.topic] = node.create_publisher(
+                    message_class(m.msgtype), m.topic, LATCHED_QOS if m.topic == T.RUN_CONFIG else qos)
+        time.sleep(0.5)  # discovery
+        t0_bag = messages[0].log_time if messages else 0
+        t0 = time.monotonic()
+        for m in messages:
+            if rate > 0:
+                delay = (m.log_time - t0_bag) / 1e9 / rate - (time.monotonic() - t0)
+                if delay > 0:
+                    time.sleep(delay)
+            pubs[m.topic].publish(m.data)
+            n += 1
+    except KeyboardInterrupt:
+        pass
+    finally:
+        node.destroy_node()
+        rclpy.try_shutdown()
+    return n
+
+
+def main(args=None) -> None:
+    parser = argparse.ArgumentParser(prog="stns_replay", description=__doc__.splitlines()[0])
+    parser.add_argument("bag", help="rosbag2 directory (or .mcap file) of a run")
+    parser.add_argument("--rate", type=float, default=1.0,
+                        help="replay speed relative to the recorded sim time (0 = as fast as possible)")
+    parser.add_argument("--verify", action="store_true",
+                        help="check a fresh agent makes the recorded decisions (no republishing)")
+    parser.add_argument("--no-publish", action="store_true", help="do not republish")
+    parser.add_argument("--out", help="folder for summary.json and plots (default BAG/../replay)")
+    ns = parser.parse_args(args)
+    try:
+        bag = require_bag(ns.bag)
+        if ns.rate < 0:
+            raise StnsRosError(f"--rate must be >= 0, got {ns.rate}")
+        run = load_run(bag)
+        summary = summarize(run, bag)
+        out = Path(ns.out) if ns.out else bag.resolve().parent / "replay"
+        out.mkdir(parents=True, exist_ok=True)
+        (out / "summary.json").write_text(json.dumps(summary, indent=2, sort_keys=True))
+        plots = write_plots(run, summary, out)
+        print(format_summary(summary))
+        for p in plots:
+            print(f"  plot: {p}")
+        if ns.verify:
+            print(verify(run))
+        elif not ns.no_publish:
+            n = republish(bag, ns.rate)
+            print(f"republished {n} messages")
+    except VerifyError as e:
+        print(f"verify: FAILED: {e}")
+        sys.exit(1)
+    except StnsRosError as e:
+        sys.exit(f"stns_replay: error: {e}")
+
+
+if __name__ == "__main__":
+    main()

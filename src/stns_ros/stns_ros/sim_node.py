@@ -20,6 +20,7 @@ import rclpy
 from geometry_msgs.msg import PointStamped, TwistStamped, Vector3Stamped
 from nav_msgs.msg import Odometry
 from rclpy.clock import Clock, ClockType
+from rclpy.exceptions import ParameterException
 from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from rclpy.parameter import Parameter
@@ -91,17 +92,17 @@ class RoverSimNode(Node):
                               ("record_compression", ("zstd", "lz4", "none"))):
             reason = check_choice(name, p[name], choices)
             if reason:
-                raise ValueError(reason)
+                raise StnsRosError(reason)
         for name in FAULT_PARAMS:
             reason = check_fault(name, p[name])
             if reason:
-                raise ValueError(reason)
+                raise StnsRosError(reason)
         try:
             overrides = json.loads(p["world_overrides"])
         except json.JSONDecodeError as e:
-            raise ValueError(f"world_overrides is not JSON: {e}") from None
+            raise StnsRosError(f"world_overrides is not JSON: {e}") from None
         if not isinstance(overrides, dict):
-            raise ValueError(f"world_overrides must be a JSON object, got {overrides!r}")
+            raise StnsRosError(f"world_overrides must be a JSON object, got {overrides!r}")
         self.params = p
         try:
             self.world = RoverWorld(WorldConfig.preset(p["world_preset"], **overrides),
@@ -298,7 +299,7 @@ def main(args=None) -> None:
         spin(node)
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
-    except (ValueError, StnsRosError) as e:
+    except (StnsRosError, ParameterException) as e:
         sys.exit(f"rover_sim_node: {e}")
     finally:
         if node is not None:

@@ -1,0 +1,84 @@
+import shutil
+from pathlib import Path
+
+import pytest
+from geometry_msgs.msg import TwistStamped
+from rclpy.serialization import serialize_message
+from std_msgs.msg import String
+from stns_ros.bag import BagWriter, decode, message_definition, read_messages, read_metadata
+from stns_ros.errors import StnsRosError
+
+
+def _write(path, n=500, flush_at=None, close=True):
+    w = BagWriter(path, chunk_size=4096, custom_data={"k": "v"})
+    w.add_topic("/cmd_vel", "geometry_msgs/msg/TwistStamped")
+    w.add_topic("/note", "std_msgs/String")
+    m = TwistStamped()
+    for i in range(n):
+        m.twist.linear.x = float(i)
+        w.write("/cmd_vel", serialize_message(m), 1000 + i)
+        if i % 100 == 0:
+            w.write("/note", serialize_message(String(data=f"n{i}")), 1000 + i)
+        if flush_at is not None and i == flush_at:
+            w.flush()
+    if close:
+        w.close()
+        w.close()  # idempotent
+    return w
+
+
+def test_complete_schemas():
+    msgdef, rihs = message_definition("nav_msgs/Odometry")
+    assert "MSG: std_msgs/Header" in msgdef and "MSG: geometry_msgs/PoseWithCovariance" in msgdef
+    assert rihs.startswith("RIHS01_")
+    with pytest.raises(StnsRosError, match="unknown message type 'nope_msgs/msg/X'"):
+        message_definition("nope_msgs/msg/X")
+
+
+def test_round_trip_with_three_readers(tmp_path):
+    _write(tmp_path / "b")
+    msgs = list(read_messages(tmp_path / "b"))
+    assert len(msgs) == 505
+    assert decode(msgs[-1]).twist.linear.x == 499.0
+    meta = read_metadata(tmp_path / "b")
+    assert meta["message_count"] == 505 and meta["storage_identifier"] == "mcap"
+    assert meta["custom_data"] == {"k": "v"}
+
+    from rosbags.highlevel import AnyReader
+
+    with AnyReader([tmp_path / "b"]) as reader:
+        counts = {c.topic: c.msgcount for c in reader.connections}
+        assert counts == {"/cmd_vel": 500, "/note": 5}
+        last = None
+        for conn, _, raw in reader.messages():
+            last = reader.deserialize(raw, conn.msgtype) if conn.topic == "/cmd_vel" else last
+        assert last.twist.linear.x == 499.0
+
+    from mcap_ros2.reader import read_ros2_messages
+
+    got = [m.ros_msg for m in read_ros2_messages(str(tmp_path / "b" / "b.mcap"), topics=["/note"])]
+    assert [m.data for m in got] == [f"n{i}" for i in range(0, 500, 100)]
+
+
+def test_killed_writer_leaves_a_readable_prefix(tmp_path):
+    w = _write(tmp_path / "b", n=500, flush_at=300, close=False)
+    killed = tmp_path / "killed"
+    shutil.copytree(tmp_path / "b", killed)  # the state a SIGKILL would leave
+    w.close()
+    assert not (killed / "metadata.yaml").exists()
+    msgs = [m for m in read_messages(killed) if m.topic == "/cmd_vel"]
+    assert len(msgs) >= 301  # everything up to the flush, at least
+    assert [decode(m).twist.linear.x for m in msgs] == [float(i) for i in range(len(msgs))]
+
+
+def test_refuses_to_overwrite_and_unknown_topic(tmp_path):
+    w = BagWriter(tmp_path / "b")
+    with pytest.raises(StnsRosError, match="was not registered"):
+        w.write("/x", b"", 0)
+    w.close()
+    with pytest.raises(StnsRosError, match="exists already"):
+        BagWriter(tmp_path / "b")
+    with pytest.raises(StnsRosError, match="unknown bag compression 'gzip'"):
+        BagWriter(tmp_path / "c", compression="gzip")
+    with pytest.raises(StnsRosError, match="no bag at"):
+        list(read_messages(Path(tmp_path / "none")))

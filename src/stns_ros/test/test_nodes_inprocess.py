@@ -1,0 +1,80 @@
+"""In-process rclpy: parameter validation of the nodes and the recorder on a few messages."""
+
+import json
+
+import pytest
+from rclpy.parameter import Parameter
+
+
+@pytest.fixture
+def sim(rclpy_context):
+    from stns_ros.sim_node import RoverSimNode
+
+    node = RoverSimNode()
+    yield node
+    node.close()
+    node.destroy_node()
+
+
+def test_fault_parameters_are_validated_with_a_reason(sim):
+    res = sim.set_parameters([Parameter("left_wheel_gain", value=0.0)])[0]
+    assert not res.successful and "left_wheel_gain must be in (0, 2], got 0.0" in res.reason
+    res = sim.set_parameters([Parameter("goal_sensor_rotation_deg", value=500.0)])[0]
+    assert not res.successful and "goal_sensor_rotation_deg" in res.reason
+    assert sim.world.faults["goal_sensor_rotation_deg"] == 0.0
+    res = sim.set_parameters([Parameter("goal_sensor_rotation_deg", value=15.0)])[0]
+    assert res.successful
+    assert sim.world.faults["goal_sensor_rotation_deg"] == 15.0
+    res = sim.set_parameters([Parameter("goal_sensor_noise_std_m", value=0.125)])[0]
+    assert res.successful and sim.world.faults["goal_sensor_noise_std"] == 2.0  # u
+    res = sim.set_parameters([Parameter("mode", value="free_running")])[0]
+    assert not res.successful  # read-only
+
+
+def test_bad_start_parameters_are_refused(rclpy_context):
+    from stns_ros.errors import StnsRosError
+    from stns_ros.sim_node import RoverSimNode
+
+    with pytest.raises(StnsRosError, match="world_overrides is not JSON"):
+        RoverSimNode(parameter_overrides=[Parameter("world_overrides", value="{oops")])
+    with pytest.raises(StnsRosError, match="world: .*room_size"):
+        RoverSimNode(parameter_overrides=[Parameter("world_overrides", value='{"room_size": -3}')])
+
+
+def test_agent_parameters_have_descriptors(rclpy_context):
+    from stns_ros.agent_node import StnsAgentNode
+
+    node = StnsAgentNode(parameter_overrides=[Parameter("gamma", value=0.5)])
+    try:
+        assert node.driver.agent.config.gamma == 0.5
+        d = node.describe_parameter("gamma")
+        assert d.floating_point_range[0].to_value == 1.0 and d.read_only
+        res = node.set_parameters([Parameter("watchdog_timeout", value=-1.0)])[0]
+        assert not res.successful
+    finally:
+        node.close()
+        node.destroy_node()
+
+
+def test_recorder_records_raw_messages(rclpy_context, tmp_path):
+    import rclpy
+    from std_msgs.msg import String
+    from stns_ros.bag import decode, read_messages
+    from stns_ros.recording import RECORD_QOS, TopicRecorder
+
+    node = rclpy.create_node("rec_test")
+    rec = TopicRecorder(node, str(tmp_path / "bag"), log_time=lambda: 42)
+    rec.subscribe(["/fault_injector/events"])
+    pub = node.create_publisher(String, "/fault_injector/events", RECORD_QOS)
+    for i in range(3):
+        pub.publish(String(data=json.dumps({"i": i})))
+    ex = rclpy.executors.SingleThreadedExecutor()
+    ex.add_node(node)
+    for _ in range(100):
+        ex.spin_once(timeout_sec=0.05)
+        if rec.bag.counts["/fault_injector/events"] == 3:
+            break
+    rec.close()
+    node.destroy_node()
+    got = [json.loads(decode(m).data)["i"] for m in read_messages(tmp_path / "bag")]
+    assert got == [0, 1, 2]
