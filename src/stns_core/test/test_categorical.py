@@ -1,0 +1,261 @@
+"""Extraction and the five maintenance operations (paper section 5.3)."""
+
+import numpy as np
+import pytest
+from conftest import make_learner, ring
+from stns_core.history import ARRIVAL
+
+GOAL_PTS = ring((0.0, 0.0), radius=2.0, n=8)[[0, 4, 2, 6, 1, 5, 3, 7]]
+FAR_PTS = ring((30.0, 0.0), radius=2.0, n=16)
+
+
+def add_goal_record(lr, k, b=0, reward=10.0):
+    x = GOAL_PTS[k % len(GOAL_PTS)]
+    lr.add_record(x, lr.classify(x), b, reward, x, lr.classify(x), True)
+
+
+def add_move_record(lr, k, b=2, to=(0.5, 0.0)):
+    x = FAR_PTS[k % len(FAR_PTS)]
+    xn = np.array(to)
+    lr.add_record(x, lr.classify(x), b, 0.0, xn, lr.classify(xn), False)
+
+
+def test_r_extraction_fires_exactly_when_the_count_passes_n_init():
+    lr = make_learner(n_init_r=3)
+    add_goal_record(lr, 0, b=1)  # another behaviour's rewards do not count for b=0
+    for k in range(3):
+        add_goal_record(lr, k)
+        assert lr.order == []
+    add_goal_record(lr, 3)
+    assert [s.attributes() for s in lr.order] == [("R", 0, 10.0)]
+    sit = lr.order[0]
+    assert sit.n_pos == 4 and sit.n_neg == 0  # all records meeting it; no negatives yet
+    assert lr.events[-1]["event"] == "extracted"
+
+
+def test_small_rewards_never_extract():
+    lr = make_learner(n_init_r=3)
+    for k in range(10):
+        add_goal_record(lr, k, reward=5.0)  # not above r_min_r = 5
+    assert lr.order == []
+
+
+def test_t_extraction_fires_exactly_when_the_count_passes_n_init():
+    lr = make_learner(n_init_t=5)
+    for k in range(4):
+        add_goal_record(lr, k)
+    r_id = lr.order[0].id
+    assert lr.classify(np.array([0.5, 0.0])) == r_id
+    for k in range(5):
+        add_move_record(lr, k)
+        assert len(lr.order) == 1
+    add_move_record(lr, 5)
+    assert [s.attributes() for s in lr.order] == [("R", 0, 10.0), ("T", 2, r_id)]
+    t = lr.order[1]
+    assert t.n_pos == 6
+    assert lr.classify(FAR_PTS[0]) == t.id  # re-labelled: the region is now the T-situation
+
+
+def test_t_extraction_counts_only_moves_from_situation_zero():
+    lr = make_learner(n_init_t=5)
+    for k in range(4):
+        add_goal_record(lr, k)
+    for k in range(12):  # from inside the R-situation itself: not from situation 0
+        x = GOAL_PTS[k % 8] * 0.5
+        lr.add_record(x, lr.classify(x), 3, 0.0, GOAL_PTS[0], lr.classify(GOAL_PTS[0]), False)
+    assert len(lr.order) == 1
+
+
+def test_operation_1_positives_and_negatives():
+    lr = make_learner()
+    for k in range(4):
+        add_goal_record(lr, k)
+    sit = lr.order[0]
+    inside = np.array([0.5, 0.5])
+    outside = np.array([40.0, 40.0])
+    assert lr.classify(inside) == sit.id and lr.classify(outside) == 0
+    slots = []
+
+    def add(x, b, reward, terminal):
+        slots.append(lr.hist.head)
+        lr.add_record(x, lr.classify(x), b, reward, x, lr.classify(x), terminal)
+
+    add(inside, 0, 10.0, True)  # condition behaviour, result met -> positive
+    add(inside, 0, -1.0, False)  # classified in it, condition behaviour, not met -> negative
+    add(inside, 1, 0.0, False)  # other behaviour -> neither
+    add(outside, 0, 10.0, True)  # met, classified elsewhere -> positive all the same
+    elsewhere = np.array([-40.0, 40.0])
+    assert lr.classify(elsewhere) == 0
+    add(elsewhere, 0, 0.0, False)  # not met, classified elsewhere -> neither
+    assert [bool(sit.pos[s]) for s in slots] == [True, False, False, True, False]
+    assert [bool(sit.neg[s]) for s in slots] == [False, True, False, False, False]
+
+
+def test_oldest_record_forgotten_everywhere():
+    lr = make_learner(history_size=10, n_min_r=1)
+    for k in range(4):
+        add_goal_record(lr, k)
+    sit = lr.order[0]
+    first = 0
+    assert sit.pos[first]
+    for _ in range(6):
+        lr.add_record(np.array([60.0, 60.0]), 0, ARRIVAL, 0.0, np.array([60.0, 60.0]), 0, True)
+    assert len(lr.hist) == 10 and sit.pos[first]
+    lr.add_record(np.array([60.0, 60.0]), 0, ARRIVAL, 0.0, np.array([60.0, 60.0]), 0, True)
+    assert not sit.pos[first] and sit.n_pos == 3
+    assert len(lr.hist) == 10
+
+
+def test_reordering_by_utility_changes_who_wins_an_overlap():
+    lr = make_learner(n_init_r=3)
+    a_pts = ring((0.0, 0.0), 2.0, 8)
+    ang = np.linspace(0.0, 2 * np.pi, 8, endpoint=False) + np.pi / 8
+    b_pts = np.stack([3.8 + 2.0 * np.cos(ang), 2.0 * np.sin(ang)], 1)  # none inside A
+    for p in a_pts:  # A: goal reward 6 by behaviour 0, extracted first
+        lr.add_record(p, lr.classify(p), 0, 6.0, p, lr.classify(p), True)
+    for p in b_pts:  # B: goal reward 10 by behaviour 1
+        lr.add_record(p, lr.classify(p), 1, 10.0, p, lr.classify(p), True)
+    a, b = lr.order
+    assert (a.reward_key, b.reward_key) == (6.0, 10.0)
+    overlap = np.array([1.9, 0.0])
+    assert lr.classify(overlap) == a.id
+    lr._periodic()
+    assert [s.id for s in lr.order] == [b.id, a.id]
+    assert b.utility > a.utility > 0
+    assert lr.classify(overlap) == b.id
+    assert lr.events[-1]["event"] == "reordered"
+
+
+# -- operation 4: validity, recycling, the five elimination cases ------------------------
+
+def base(**overrides):
+    """R1 (b=0) near the origin and T2 (b=1 -> R1) near (20, 0); labels kept as given."""
+    lr = make_learner(relabel="never", n_init_t=3, n_min_t=2, n_init_r=2, n_min_r=2,
+                      **overrides)
+    h = lr.hist
+    for p in GOAL_PTS[:3]:
+        h.append(p, 0, 0, 10.0, p, 0, True)
+    lr._new_situation("R", 0, 0, 10.0, 3)
+    r1 = lr.order[0]
+    for p in ring((20.0, 0.0), 1.0, 3):
+        h.append(p, 0, 1, 0.0, GOAL_PTS[0], r1.id, False)
+    lr._new_situation("T", 1, r1.id, 0.0, 3)
+    return lr, r1, lr.order[1]
+
+
+def taken_from(lr, sid, b, to, n, terminal=False):
+    for _ in range(n):
+        lr.hist.append(np.array([20.0, 0.0]), sid, b, 0.0, np.array([0.0, 0.0]), to, terminal)
+    lr._version += 1
+
+
+def last(lr, kind):
+    return [e for e in lr.events if e["event"] == kind][-1]
+
+
+def test_valid_situations_are_left_alone():
+    lr, r1, t2 = base()
+    taken_from(lr, t2.id, 1, r1.id, 3)
+    lr._validity()
+    assert [s.id for s in lr.order] == [r1.id, t2.id]
+
+
+def test_recycling_redefines_with_the_most_frequent_behaviour_and_result():
+    lr, r1, t2 = base()
+    lr.hist.append(GOAL_PTS[3], 0, 3, 10.0, GOAL_PTS[3], 0, True)
+    for p in GOAL_PTS[4:7]:
+        lr.hist.append(p, 0, 3, 10.0, p, 0, True)
+    lr._new_situation("R", 3, 0, 10.0, 4)
+    r3 = lr.order[2]
+    taken_from(lr, t2.id, 2, r3.id, 4)  # behaviour 2 from T2 reaches R3: strict majority
+    taken_from(lr, t2.id, 1, r1.id, 1)
+    lr._validity()
+    assert t2.attributes() == ("T", 2, r3.id)
+    ev = last(lr, "redefined")
+    assert ev["situation"] == t2.id and ev["reason"] == "not_majority"
+    assert (ev["old_behaviour"], ev["old_parent"]) == (1, r1.id)
+    assert t2.n_pos == 4 and t2.n_neg == 0
+    assert sum(1 for e in lr.events if e["event"] == "redefined") == 1  # once per check
+
+
+@pytest.mark.parametrize("case,target,expect", [
+    ("case 1", "zero", "case 1: new parent is situation 0"),
+    ("case 2", "self", "case 2: new parent is itself"),
+    ("case 3", "child", "case 3: new parent's parent is itself"),
+    ("case 4", "taken", "case 4: attributes already taken"),
+    ("case 5", "few", "case 5: too few positive instances"),
+])
+def test_the_five_elimination_cases(case, target, expect):
+    lr, r1, t2 = base()
+    if target == "zero":
+        to = 0
+    elif target == "self":
+        to = t2.id
+    elif target == "child":  # T4 (b=3 -> T2) exists; T2 would become (2 -> T4)
+        for p in ring((40.0, 0.0), 1.0, 3):
+            lr.hist.append(p, 0, 3, 0.0, np.array([20.0, 0.0]), t2.id, False)
+        lr._new_situation("T", 3, t2.id, 0.0, 3)
+        to = lr.order[-1].id
+    elif target == "taken":  # T5 = (2 -> R1) exists
+        for p in ring((60.0, 0.0), 1.0, 3):
+            lr.hist.append(p, 0, 2, 0.0, GOAL_PTS[0], r1.id, False)
+        lr._new_situation("T", 2, r1.id, 0.0, 3)
+        to = r1.id
+    else:  # only 2 records would be positives, fewer than n_init_t = 3
+        for p in GOAL_PTS[3:6]:
+            lr.hist.append(p, 0, 3, 10.0, p, 0, True)
+        lr._new_situation("R", 3, 0, 10.0, 3)
+        to = lr.order[-1].id
+    n = 2 if target == "few" else 4
+    taken_from(lr, t2.id, 2, to, n)
+    lr._validity()
+    assert t2.id not in lr.by_id
+    ev = [e for e in lr.events if e["event"] == "eliminated" and e["situation"] == t2.id]
+    assert len(ev) == 1 and ev[0]["reason"] == "not_majority; " + expect
+
+
+def test_too_few_positives_eliminates_an_r_situation_and_orphans_its_children():
+    lr, r1, t2 = base()
+    r1.pos[:] = False
+    r1.pos[0] = True  # 1 < n_min_r = 2
+    lr._validity()
+    assert lr.order == []
+    reasons = {e["situation"]: e["reason"] for e in lr.events if e["event"] == "eliminated"}
+    assert reasons[r1.id] == "too_few_positives"  # R-situations are never recycled
+    assert reasons[t2.id].startswith("parent_eliminated")
+
+
+def test_majority_strict_versus_plurality():
+    for majority, survives in (("strict", True), ("plurality", False)):
+        lr, r1, t2 = base(majority=majority)
+        taken_from(lr, t2.id, 1, r1.id, 3)  # own pair: 3 of 10
+        taken_from(lr, t2.id, 2, 0, 4)  # plurality pair, not a strict majority: 4 of 10
+        taken_from(lr, t2.id, 3, 0, 3)
+        lr._validity()
+        assert (t2.id in lr.by_id) is survives, majority
+
+
+def test_operation_5_eliminates_negative_utility():
+    lr = make_learner(n_init_r=3, n_min_r=1, history_size=400)
+    for k in range(4):
+        add_goal_record(lr, k)
+    sit = lr.order[0]
+    inside = np.array([0.3, 0.3])
+    for b in range(4):  # every behaviour from it now costs more than it earns
+        for _ in range(60):
+            lr.add_record(inside, sit.id, b, -1.0, inside, sit.id, False)
+    lr._periodic()
+    assert sit.id not in lr.by_id
+    assert last(lr, "eliminated")["reason"].startswith("negative utility")
+
+
+def test_boundary_refit_interval_versus_every_step():
+    for mode, moves in (("every_step", True), ("interval", False)):
+        lr = make_learner(boundary_refit=mode, adjust_interval=1000, n_init_r=3)
+        for k in range(4):
+            add_goal_record(lr, k)
+        sit = lr.order[0]
+        before = sit.boundary
+        far = np.array([6.0, 0.0])
+        lr.add_record(far, lr.classify(far), 0, 10.0, far, 0, True)
+        assert (sit.boundary != before) is moves, mode

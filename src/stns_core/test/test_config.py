@@ -1,0 +1,66 @@
+"""StnsConfig: presets, validation, dict round trip."""
+
+import dataclasses
+
+import pytest
+
+from stns_core import StnsConfig, StnsConfigError
+
+
+def test_presets_carry_the_papers_parameters():
+    e1 = StnsConfig.preset("exp1")
+    assert (e1.n_init_r, e1.n_min_r, e1.n_init_t, e1.n_min_t) == (3, 3, 15, 7)
+    assert (e1.r_min_r, e1.gamma, e1.p_min, e1.n_max) == (5.0, 0.7, 0.1, 7)
+    assert (e1.history_size, e1.adjust_interval) == (1000, 100)
+    e3 = StnsConfig.preset("exp3", seed=4)
+    assert (e3.n_init_r, e3.n_min_r, e3.n_init_t, e3.n_min_t) == (9, 9, 20, 12)
+    assert (e3.p_min, e3.history_size, e3.seed) == (0.2, 10000, 4)
+
+
+def test_defaults_are_the_readings_that_learn():
+    cfg = StnsConfig()
+    assert cfg.random_stop == "situation_change"
+    assert cfg.majority == "strict"
+    assert cfg.boundary_refit == "every_step"
+    assert cfg.target_lookahead_ticks == 0
+    assert cfg.relabel == "after_modification"
+    assert cfg.planner == "iprl"
+
+
+def test_round_trip_and_replace():
+    cfg = StnsConfig.preset("exp1", seed=9, planner="pia")
+    assert StnsConfig.from_dict(cfg.to_dict()) == cfg
+    assert cfg.replace(gamma=0.5).gamma == 0.5
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        cfg.gamma = 0.1  # type: ignore[misc]
+
+
+@pytest.mark.parametrize("key,value,match", [
+    ("gamma", 1.0, "gamma must be in"),
+    ("gamma", float("nan"), "gamma must be finite"),
+    ("p_min", -0.1, "p_min must be in"),
+    ("n_init_r", 0, "n_init_r must be >= 1"),
+    ("n_max", 2.5, "n_max must be an int"),
+    ("history_size", True, "history_size must be an int"),
+    ("planner", "dijkstra", "planner must be one of"),
+    ("random_stop", "never", "random_stop must be one of"),
+    ("majority", "simple", "majority must be one of"),
+    ("boundary_refit", "sometimes", "boundary_refit must be one of"),
+    ("relabel", "always", "relabel must be one of"),
+    ("target_lookahead_ticks", -1, "target_lookahead_ticks must be >= 0"),
+    ("cov_reg", 0.0, "cov_reg must be > 0"),
+])
+def test_bad_values_raise_named_errors(key, value, match):
+    with pytest.raises(StnsConfigError, match=match):
+        StnsConfig(**{key: value})
+
+
+def test_unknown_keys_rejected():
+    with pytest.raises(StnsConfigError, match="unknown StnsConfig keys: \\['gama'\\]"):
+        StnsConfig.from_dict({"gama": 0.7})
+    with pytest.raises(StnsConfigError, match="unknown StnsConfig keys"):
+        StnsConfig.preset("exp1", nmax=3)
+    with pytest.raises(StnsConfigError, match="unknown preset 'exp2'"):
+        StnsConfig.preset("exp2")
+    with pytest.raises(StnsConfigError, match="unknown StnsConfig keys"):
+        StnsConfig().replace(foo=1)
