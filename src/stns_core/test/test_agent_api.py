@@ -61,3 +61,16 @@ def test_same_seed_same_decisions():
 def test_presets(preset):
     cfg = StnsConfig.preset(preset)
     assert cfg.gamma == 0.7 and cfg.n_max == 7
+
+
+def test_learning_smoke_exp1_kinematic():
+    """After 3000 behaviour steps the learner needs far fewer behaviours than random (~40)."""
+    from stns_core.toyworld import behaviours_per_arrival
+
+    agent = StnsAgent(StnsConfig.preset("exp1", seed=0), obs_dim=2, n_behaviours=4)
+    records = run_learning(agent, 3000, seed=0)
+    assert behaviours_per_arrival(records[-1000:], 1000) < 4.0
+    kinds = {s["kind"] for s in agent.explain()["situations"]}
+    assert kinds == {"R", "T"}
+    planned = [r for r in records[-1000:] if r.planned and r.kind in ("R", "T")]
+    assert sum(r.success for r in planned) / len(planned) > 0.7

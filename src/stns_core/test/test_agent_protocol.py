@@ -1,0 +1,157 @@
+"""Tick protocol details: stop rules, look-ahead, plan execution, input validation."""
+
+import numpy as np
+import pytest
+from conftest import ring
+
+from stns_core import (
+    StnsAgent,
+    StnsConfig,
+    StnsDimensionError,
+    StnsError,
+    StnsInputError,
+)
+
+R_PTS = ring((0.0, 0.0), 2.0, 8)[[0, 4, 2, 6, 1, 5, 3, 7]]
+FAR = np.array([30.0, 0.0])
+
+
+def agent_with_r_situation(**overrides):
+    cfg = StnsConfig(n_init_r=3, n_min_r=3, n_init_t=5, n_min_t=3, history_size=300,
+                     **overrides)
+    agent = StnsAgent(cfg, obs_dim=2, n_behaviours=4)
+    lr = agent.learner
+    for p in R_PTS[:4]:
+        lr.add_record(p, lr.classify(p), 0, 10.0, p, lr.classify(p), True)
+    assert len(lr.order) == 1
+    return agent, lr.order[0].id
+
+
+def test_first_call_random_when_no_plan_has_positive_utility():
+    agent = StnsAgent(StnsConfig(seed=5), obs_dim=2, n_behaviours=4)
+    a = agent.step(FAR, 0.0, False)
+    assert agent._run.planned is False and 0 <= a < 4
+    draws = np.random.default_rng(5).integers(4)
+    assert a == draws  # from the config's seeded generator
+
+
+@pytest.mark.parametrize("random_stop,stops", [("situation_change", True), ("reward", False)])
+def test_random_behaviour_stop_reading(random_stop, stops):
+    agent, rid = agent_with_r_situation(random_stop=random_stop)
+    a = agent.step(FAR, 0.0, False)
+    assert agent._run.planned is False
+    out = agent.step(np.array([0.2, 0.0]), 0.0, False)  # now classified into R
+    recs = agent.pop_records()
+    if stops:
+        assert len(recs) == 1 and recs[0].next_situation == rid and recs[0].planned is False
+        assert recs[0].success is None and recs[0].ticks == 1 and recs[0].behaviour == a
+    else:
+        assert recs == [] and out == a
+    agent.step(np.array([0.3, 0.0]), -1.0, False)  # any reward stops any behaviour
+    assert len(agent.pop_records()) == 1
+
+
+def trained_agent(**overrides):
+    """R (b=0) at the origin; from FAR, behaviour 2 always reaches it: plan [(2, R), (0, goal)]."""
+    agent, rid = agent_with_r_situation(**overrides)
+    lr = agent.learner
+    inside = np.array([0.5, 0.0])
+    for k in range(3):
+        x = FAR + k
+        lr.add_record(x, lr.classify(x), 2, 0.0, inside, lr.classify(inside), False)
+    assert lr.plan(0)[1] == [(2, rid), (0, -1)]
+    return agent, rid
+
+
+def test_planned_behaviour_stops_at_target_then_plan_goes_on():
+    agent, rid = trained_agent()
+    assert agent.step(FAR, 0.0, False) == 2
+    assert agent._run.target == rid and agent._run.planned
+    assert agent.step(FAR + [-5.0, 0.0], 0.0, False) == 2  # margin still: goes on
+    nxt = agent.step(np.array([0.4, 0.1]), 0.0, False)
+    rec = agent.pop_records()[-1]
+    assert rec.success is True and rec.target == rid and rec.ticks == 2
+    assert nxt == 0 and agent._run.target == -1  # second plan element: goal by behaviour 0
+    assert agent.explain()["master_plan"][0] == {"behaviour": 0, "target": "goal", "running": True}
+    assert agent.step(np.array([0.4, 0.0]), 10.0, True) is None  # goal arrival
+    recs = agent.pop_records()
+    assert recs[0].success is True and recs[0].reward == 10.0 and recs[0].target is None
+    assert recs[1].arrival and recs[1].behaviour is None and recs[1].next_situation is None
+    assert agent.trial == 1
+
+
+@pytest.mark.parametrize("lookahead", [0, 1, 3])
+def test_target_lookahead(lookahead):
+    agent, rid = trained_agent(target_lookahead_ticks=lookahead)
+    agent.step(FAR, 0.0, False)
+    inside = [np.array([0.4, 0.0]), np.array([0.3, 0.0]), np.array([0.2, 0.0]),
+              np.array([0.1, 0.0])]
+    for k, x in enumerate(inside):
+        agent.step(x, 0.0, False)
+        recs = agent.pop_records()
+        if recs:
+            assert k == lookahead and recs[0].ticks == lookahead + 1
+            assert recs[0].next_situation == rid and recs[0].success
+            break
+    else:
+        pytest.fail("never stopped")
+
+
+def test_lookahead_leaving_the_target_ends_where_it_last_was_inside():
+    agent, rid = trained_agent(target_lookahead_ticks=3)
+    agent.step(FAR, 0.0, False)
+    last_inside = np.array([0.4, 0.0])
+    agent.step(last_inside, 0.0, False)
+    out = np.array([9.0, 9.0])
+    assert agent.learner.classify(out) == 0
+    agent.step(out, 0.0, False)
+    rec = agent.pop_records()[0]
+    assert rec.next_situation == rid and rec.success and rec.ticks == 2
+    h = agent.learner.hist
+    slot = (h.head - 1) % h.capacity
+    assert np.array_equal(h.x_next[slot], last_inside)
+    assert np.array_equal(agent._run.x0, out)  # the next step starts where the input is
+
+
+def test_max_behaviour_ticks():
+    agent = StnsAgent(StnsConfig(max_behaviour_ticks=3, random_stop="reward"), 2, 4)
+    agent.step(FAR, 0.0, False)
+    for _ in range(3):
+        agent.step(FAR, 0.0, False)
+    assert [r.ticks for r in agent.pop_records()] == [3]
+
+
+@pytest.mark.parametrize("obs,err,match", [
+    (np.zeros(3), StnsDimensionError, r"shape \(3,\) does not match obs_dim 2"),
+    (np.zeros((1, 2)), StnsDimensionError, "does not match obs_dim 2"),
+    ([1.0, float("nan")], StnsInputError, "non-finite values: \\[1.0, nan\\]"),
+    ([1.0, float("inf")], StnsInputError, "non-finite"),
+    (["a", "b"], StnsInputError, "not numeric"),
+])
+def test_bad_observations_raise_named_errors(obs, err, match):
+    agent = StnsAgent(StnsConfig(), 2, 4)
+    with pytest.raises(err, match=match):
+        agent.step(obs, 0.0, False)
+    with pytest.raises(StnsError):
+        agent.classify(obs)
+
+
+@pytest.mark.parametrize("reward,match", [
+    (float("nan"), "reward must be finite, got nan"),
+    (float("-inf"), "reward must be finite"),
+    ("x", "reward must be a number, got 'x'"),
+    (True, "reward must be a number"),
+])
+def test_bad_rewards_raise_named_errors(reward, match):
+    agent = StnsAgent(StnsConfig(), 2, 4)
+    with pytest.raises(StnsInputError, match=match):
+        agent.step(np.zeros(2), reward, False)
+
+
+def test_bad_constructor_arguments():
+    with pytest.raises(StnsInputError, match="config must be a StnsConfig"):
+        StnsAgent({"gamma": 0.7}, 2, 4)
+    with pytest.raises(StnsInputError, match="obs_dim must be >= 1, got 0"):
+        StnsAgent(StnsConfig(), 0, 4)
+    with pytest.raises(StnsInputError, match="n_behaviours must be an int"):
+        StnsAgent(StnsConfig(), 2, 4.0)

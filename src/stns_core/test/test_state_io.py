@@ -1,0 +1,113 @@
+"""Save / load: round trip, identical continuation, refusal of bad files, atomic writes."""
+
+import copy
+import json
+import os
+
+import numpy as np
+import pytest
+from stns_core.toyworld import KinematicRover
+
+from stns_core import StnsAgent, StnsConfig, StnsStateError
+
+
+def drive(agent, world, state, ticks, until_steps=None):
+    """Run ``ticks`` control ticks (or until ``until_steps`` records); actions and loop state."""
+    obs, reward, terminated = state
+    actions = []
+    while len(actions) < ticks or (until_steps and agent.behaviour_steps < until_steps):
+        if until_steps and agent.behaviour_steps >= until_steps:
+            break
+        a = agent.step(obs, reward, terminated)
+        actions.append(a)
+        if a is None:
+            obs, reward, terminated = world.reset(), 0.0, False
+        else:
+            obs, reward, terminated = world.step(a)
+    return actions, (obs, reward, terminated)
+
+
+@pytest.mark.parametrize("planner", ["iprl", "pia"])
+def test_loaded_agent_continues_with_identical_decisions(tmp_path, planner):
+    agent = StnsAgent(StnsConfig.preset("exp1", seed=11, planner=planner), 2, 4)
+    world = KinematicRover(seed=11)
+    _, state = drive(agent, world, (world.reset(), 0.0, False), 0, until_steps=700)
+    assert agent.learner.order, "expected situations after 12000 ticks"
+    path = tmp_path / "learner.npz"
+    agent.save(path)
+    clone = StnsAgent.load(path)
+    assert clone.explain() == agent.explain()
+    world2 = copy.deepcopy(world)
+    a1, _ = drive(agent, world, state, 6000)
+    a2, _ = drive(clone, world2, state, 6000)
+    assert a1 == a2
+    assert [r.to_dict() for r in agent.pop_records()] == [r.to_dict() for r in clone.pop_records()]
+    assert clone.config == agent.config and clone.behaviour_steps == agent.behaviour_steps
+
+
+def test_corrupt_or_incompatible_files_are_refused(tmp_path):
+    agent = StnsAgent(StnsConfig(), 2, 4)
+    agent.step(np.zeros(2) + 30.0, 0.0, False)
+    good = tmp_path / "good.npz"
+    agent.save(good)
+    garbage = tmp_path / "garbage.npz"
+    garbage.write_bytes(b"not a zip file at all")
+    with pytest.raises(StnsStateError, match="garbage.npz: not a readable learner file"):
+        StnsAgent.load(garbage)
+    truncated = tmp_path / "truncated.npz"
+    truncated.write_bytes(good.read_bytes()[:200])
+    with pytest.raises(StnsStateError, match="truncated.npz"):
+        StnsAgent.load(truncated)
+    with pytest.raises(StnsStateError, match="missing.npz: no such file"):
+        StnsAgent.load(tmp_path / "missing.npz")
+
+    def rewrite(name, edit):
+        with np.load(good) as data:
+            arrays = {k: data[k] for k in data.files}
+        meta = json.loads(str(arrays["meta"]))
+        edit(meta, arrays)
+        arrays["meta"] = np.array(json.dumps(meta))
+        path = tmp_path / name
+        np.savez(path, **arrays)
+        return path
+
+    def future(meta, arrays):
+        meta["version"] = 99
+
+    with pytest.raises(StnsStateError, match="format version 99 unsupported"):
+        StnsAgent.load(rewrite("future.npz", future))
+
+    def other(meta, arrays):
+        meta["format"] = "something.else"
+
+    with pytest.raises(StnsStateError, match="format 'something.else'"):
+        StnsAgent.load(rewrite("other.npz", other))
+
+    def bad_config(meta, arrays):
+        meta["config"]["gamma"] = 3.0
+
+    with pytest.raises(StnsStateError, match="bad_config.npz: .*gamma must be in"):
+        StnsAgent.load(rewrite("bad_config.npz", bad_config))
+
+    def wrong_dim(meta, arrays):
+        meta["obs_dim"] = 8
+
+    with pytest.raises(StnsStateError, match="wrong_dim.npz: history shape"):
+        StnsAgent.load(rewrite("wrong_dim.npz", wrong_dim))
+
+
+def test_failed_save_keeps_the_previous_file(tmp_path, monkeypatch):
+    agent = StnsAgent(StnsConfig(), 2, 4)
+    path = tmp_path / "learner.npz"
+    agent.save(path)
+    before = path.read_bytes()
+    agent.step(np.zeros(2) + 30.0, 0.0, False)
+
+    def boom(*args, **kwargs):
+        raise OSError("disk full")
+
+    monkeypatch.setattr(np, "savez_compressed", boom)
+    with pytest.raises(OSError, match="disk full"):
+        agent.save(path)
+    assert path.read_bytes() == before
+    assert os.listdir(tmp_path) == ["learner.npz"]  # no temporary file left behind
