@@ -40,6 +40,13 @@ def load_run(bag: str | os.PathLike[str]) -> RunData:
     from visualization_msgs.msg import Marker, MarkerArray
 
     run = RunData()
+    try:  # topics registered but silent count as 0
+        from stns_ros.bag import read_metadata
+
+        for t in read_metadata(bag)["topics_with_message_count"]:
+            run.counts[t["topic_metadata"]["name"]] = 0
+    except (StnsRosError, KeyError, TypeError, OSError):
+        pass
     for m in read_messages(bag):
         run.counts[m.topic] = run.counts.get(m.topic, 0) + 1
         if m.topic == T.GOAL:

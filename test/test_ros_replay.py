@@ -1,0 +1,60 @@
+"""stns_replay: --verify passes on a recorded run and fails on a tampered one; republishing."""
+
+import os
+import subprocess
+
+from conftest import DOMAIN, command
+from stns_ros.bag import BagWriter, read_messages, read_metadata
+
+from stns_ros import topics as T
+
+
+def replay(*args, timeout=120):
+    env = dict(os.environ, ROS_DOMAIN_ID=str(DOMAIN))
+    return subprocess.run(command("stns_replay", "stns_ros.replay") + [str(a) for a in args],
+                          capture_output=True, text=True, timeout=timeout, env=env)
+
+
+def test_verify_passes_on_the_recorded_run(plain_run, tmp_path):
+    res = replay(plain_run / "bag", "--verify", "--out", tmp_path)
+    assert res.returncode == 0, res.stdout + res.stderr
+    assert "verify: OK: 150 behaviour steps" in res.stdout
+    assert "behaviour steps 150" in res.stdout  # the summary, from the bag alone
+    assert (tmp_path / "learning_curve.png").exists() and (tmp_path / "summary.json").exists()
+
+
+def _tampered_copy(src, dst, which: int):
+    """Copy the bag, with the `which`-th /cmd_vel turned the other way."""
+    from geometry_msgs.msg import TwistStamped
+    from rclpy.serialization import deserialize_message, serialize_message
+
+    types = {t["topic_metadata"]["name"]: t["topic_metadata"]["type"]
+             for t in read_metadata(src)["topics_with_message_count"]}
+    n = 0
+    with BagWriter(dst) as w:
+        for topic, msgtype in types.items():
+            w.add_topic(topic, msgtype)
+        for m in read_messages(src):
+            data = m.data
+            if m.topic == T.CMD_VEL:
+                if n == which:
+                    msg = deserialize_message(data, TwistStamped)
+                    msg.twist.angular.z = -msg.twist.angular.z if msg.twist.angular.z else 0.8726646259971648
+                    msg.twist.linear.x = 0.0
+                    data = serialize_message(msg)
+                n += 1
+            w.write(m.topic, data, m.log_time)
+
+
+def test_verify_fails_on_a_tampered_bag(plain_run, tmp_path):
+    _tampered_copy(plain_run / "bag", tmp_path / "tampered", which=500)
+    res = replay(tmp_path / "tampered", "--verify", "--out", tmp_path / "out")
+    assert res.returncode == 1, res.stdout + res.stderr
+    assert "verify: FAILED: command at t=50.0 s differs" in res.stdout
+
+
+def test_republish_as_fast_as_possible(plain_run, tmp_path):
+    res = replay(plain_run / "bag", "--rate", "0", "--out", tmp_path)
+    assert res.returncode == 0, res.stdout + res.stderr
+    total = sum(read_metadata(plain_run / "bag")["message_count"] for _ in [0])
+    assert f"republished {total} messages" in res.stdout
