@@ -64,3 +64,15 @@ def test_unknown_keys_rejected():
         StnsConfig.preset("exp2")
     with pytest.raises(StnsConfigError, match="unknown StnsConfig keys"):
         StnsConfig().replace(foo=1)
+
+
+@pytest.mark.parametrize("name", ["exp1", "exp3"])
+def test_yaml_presets_match(name):
+    from pathlib import Path
+
+    yaml = pytest.importorskip("yaml")
+    path = Path(__file__).resolve().parents[3] / "config" / f"stns_{name}.yaml"
+    if not path.exists():
+        pytest.skip(f"{path} not in this checkout")
+    params = yaml.safe_load(path.read_text())["/**"]["ros__parameters"]
+    assert StnsConfig.from_dict(params) == StnsConfig.preset(name)
