@@ -29,33 +29,53 @@ def rover_corners(pose: Pose, length: float, width: float) -> np.ndarray:
     return local @ rot.T + (x, y)
 
 
-def box_overlap_depth(corners: np.ndarray, heading: float, box: Box) -> float:
-    """Separating-axis overlap of the rover rectangle and an axis-aligned box, u.
+def box_overlap_depth(pose: Pose, length: float, width: float, box: Box) -> float:
+    """Separating-axis overlap of the rover footprint at `pose` and an axis-aligned box, u.
 
     0 when they do not overlap, else the smallest overlap over the four axes (how far
-    the rover would have to move to get clear).
+    the rover would have to move to get clear). Pure Python: it runs every tick.
     """
-    xmin, ymin, xmax, ymax = box.bounds
-    box_pts = np.array([[xmin, ymin], [xmax, ymin], [xmax, ymax], [xmin, ymax]])
-    c, s = math.cos(heading), math.sin(heading)
-    axes = np.array([[1.0, 0.0], [0.0, 1.0], [c, s], [-s, c]])
-    pa = corners @ axes.T
-    pb = box_pts @ axes.T
-    overlap = np.minimum(pa.max(axis=0), pb.max(axis=0)) - np.maximum(pa.min(axis=0), pb.min(axis=0))
-    m = float(overlap.min())
+    x, y, th = pose
+    c, s = math.cos(th), math.sin(th)
+    hl, hw = length / 2.0, width / 2.0
+    # rover extents along the room axes, box extents along the rover axes
+    ex = abs(c) * hl + abs(s) * hw
+    ey = abs(s) * hl + abs(c) * hw
+    bx, by = box.sx / 2.0, box.sy / 2.0
+    dx, dy = box.cx - x, box.cy - y
+    fx = ex + bx - abs(dx)
+    fy = ey + by - abs(dy)
+    fu = hl + abs(c) * bx + abs(s) * by - abs(c * dx + s * dy)
+    fv = hw + abs(s) * bx + abs(c) * by - abs(-s * dx + c * dy)
+    m = min(fx, fy, fu, fv)
     return m if m > 0.0 else 0.0
 
 
-def penetration_depths(pose: Pose, config: WorldConfig) -> np.ndarray:
+def penetration_depths(pose: Pose, config: WorldConfig) -> tuple[float, ...]:
     """How deep the rover footprint is in each wall (W, E, S, N) and each obstacle, u."""
-    corners = rover_corners(pose, config.rover_length, config.rover_width)
-    lo = corners.min(axis=0)
-    hi = corners.max(axis=0)
+    x, y, th = pose
+    c, s = abs(math.cos(th)), abs(math.sin(th))
+    hl, hw = config.rover_length / 2.0, config.rover_width / 2.0
+    ex = c * hl + s * hw
+    ey = s * hl + c * hw
     size = config.room_size
-    depths = [max(0.0, -lo[0]), max(0.0, hi[0] - size), max(0.0, -lo[1]), max(0.0, hi[1] - size)]
-    for box in config.obstacles:
-        depths.append(box_overlap_depth(corners, pose[2], box))
-    return np.array(depths)
+    walls = (
+        max(0.0, ex - x),
+        max(0.0, x + ex - size),
+        max(0.0, ey - y),
+        max(0.0, y + ey - size),
+    )
+    if not config.obstacles:
+        return walls
+    return walls + tuple(
+        box_overlap_depth(pose, config.rover_length, config.rover_width, b)
+        for b in config.obstacles
+    )
+
+
+def deeper(after: tuple[float, ...], before: tuple[float, ...], eps: float = 1e-9) -> bool:
+    """True when any depth in `after` exceeds its counterpart in `before` by more than eps."""
+    return any(a > b + eps for a, b in zip(after, before, strict=True))
 
 
 def pose_is_free(pose: Pose, config: WorldConfig, margin: float = 0.0) -> bool:
@@ -65,7 +85,7 @@ def pose_is_free(pose: Pose, config: WorldConfig, margin: float = 0.0) -> bool:
         return False
     for box in config.obstacles:
         grown = Box(box.cx, box.cy, box.sx + 2 * margin, box.sy + 2 * margin)
-        if box_overlap_depth(corners, pose[2], grown) > 0.0:
+        if box_overlap_depth(pose, config.rover_length, config.rover_width, grown) > 0.0:
             return False
     return True
 

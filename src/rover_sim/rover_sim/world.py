@@ -34,6 +34,7 @@ from rover_sim.config import FAULT_NAMES, UNIT_M, Action, WorldConfig, validate_
 from rover_sim.errors import RoverSimError
 from rover_sim.geometry import (
     Pose,
+    deeper,
     penetration_depths,
     sample_goal,
     sample_pose,
@@ -241,7 +242,7 @@ class RoverWorld:
         reward = 0.0
         if v != 0.0:
             self._depths = penetration_depths(self._pose, cfg)
-            if np.any(self._depths > before_depth + _DEPTH_EPS):
+            if deeper(self._depths, before_depth, _DEPTH_EPS):
                 events.append("collision")
                 reward += COLLISION_REWARD
                 self._after_collision(before_pose, before_base, v)
@@ -408,7 +409,7 @@ class RoverWorld:
             x, y, th = before_pose
             d = -math.copysign(self._config.back_off_distance, v)
             moved = (x + d * math.cos(th), y + d * math.sin(th), th)
-            if np.all(penetration_depths(moved, self._config) <= self._depths + _DEPTH_EPS):
+            if not deeper(penetration_depths(moved, self._config), self._depths, _DEPTH_EPS):
                 self._place(moved)
 
     def _reset_rotation(self) -> None:

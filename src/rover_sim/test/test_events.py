@@ -5,6 +5,7 @@ import math
 
 import numpy as np
 import pytest
+from rover_sim.geometry import penetration_depths
 
 from rover_sim import Action, RoverSimError
 
@@ -56,8 +57,7 @@ def test_collision_replace_puts_rover_at_free_random_pose(make_world):
     assert out.events == ("collision",) and out.ticks <= 3
     x, y, _ = world.pose
     assert (x, y) != pytest.approx((12.0, 50.0), abs=3.0)
-    depths = world._depths
-    assert np.all(depths == 0.0)
+    assert max(penetration_depths(world.pose, world.config)) == 0.0
 
 
 def test_collision_back_off_moves_rover_back(make_world):
@@ -143,7 +143,7 @@ def test_rotation_next_to_wall_is_not_stopped(make_world):
         math.degrees(th) < -170.0
     )
     assert (x, y) == pytest.approx((7.0, 50.0), abs=0.2)
-    assert world._depths[0] > 0.0  # footprint now overlaps the west wall
+    assert penetration_depths(world.pose, world.config)[0] > 0.0  # overlaps the west wall
     # facing west now: moving out of the overlap is free, moving back into it collides
     _, reward, _, _, info = world.step(Action.BACKWARD)
     assert reward == 0.0 and info["pose"][0] > 7.5
