@@ -182,6 +182,8 @@ def main(args=None) -> None:
     parser.add_argument("--steps", type=int, help="behaviour steps (overrides run.steps)")
     parser.add_argument("--out", help="run folder (default runs/<run.name>)")
     parser.add_argument("--quiet", action="store_true", help="no progress lines")
+    parser.add_argument("--headless", action="store_true",
+                        help="run the same config without ROS (one process) and print its speed")
     ns = parser.parse_args(args)
     try:
         cfg = load_run_config(ns.config)
@@ -189,6 +191,15 @@ def main(args=None) -> None:
             if ns.steps < 1:
                 raise StnsRosError(f"--steps must be >= 1, got {ns.steps}")
             cfg["run"]["steps"] = ns.steps
+        if ns.headless:
+            from stns_ros.headless import run_headless
+
+            res = run_headless(cfg)
+            print(f"headless {cfg['run']['name']}: {res['behaviour_steps']} behaviour steps, "
+                  f"{res['ticks']} ticks in {res['wall_seconds']} s: "
+                  f"{res['ticks_per_second']} ticks/s, "
+                  f"{res['behaviour_steps_per_second']} behaviour steps/s")
+            return
         out = Path(ns.out or os.path.join("runs", cfg["run"]["name"]))
         sys.exit(run(cfg, out, ns.quiet))
     except StnsRosError as e:
