@@ -38,22 +38,22 @@ class _Running:
     reward: float = 0.0
     ticks: int = 0
     la_count: int = -1  # look-ahead ticks spent inside the target (-1: not yet reached)
-    la_x: np.ndarray | None = None
+    prev_x: np.ndarray | None = None  # input of the previous tick (look-ahead extrapolation)
 
     def to_dict(self) -> dict[str, Any]:
         return {
             "x0": [float(v) for v in self.x0], "s0": self.s0, "b": self.b,
             "target": self.target, "planned": self.planned, "reward": self.reward,
             "ticks": self.ticks, "la_count": self.la_count,
-            "la_x": None if self.la_x is None else [float(v) for v in self.la_x],
+            "prev_x": None if self.prev_x is None else [float(v) for v in self.prev_x],
         }
 
     @classmethod
     def from_dict(cls, d: dict[str, Any]) -> _Running:
         d = dict(d)
         d["x0"] = np.array(d["x0"], dtype=float)
-        if d["la_x"] is not None:
-            d["la_x"] = np.array(d["la_x"], dtype=float)
+        if d["prev_x"] is not None:
+            d["prev_x"] = np.array(d["prev_x"], dtype=float)
         return cls(**d)
 
 
@@ -174,22 +174,26 @@ class StnsAgent:
             lookahead = cfg.target_lookahead_ticks
             if run.la_count >= 0:  # inside the target, looking ahead
                 if s_now != run.target:
-                    return run.la_x, run.target  # ends where it last was in the target
+                    return x, s_now  # left it after all: the step ends where it is
                 run.la_count += 1
-                run.la_x = x
-                if run.la_count >= lookahead:
+                if run.la_count >= lookahead or not self._stays(run, x):
                     return x, s_now
             elif s_now == run.target:
-                if lookahead == 0:
+                if lookahead == 0 or not self._stays(run, x):
                     return x, s_now
                 run.la_count = 0
-                run.la_x = x
         elif (not run.planned and cfg.random_stop == "situation_change"
               and s_now != run.s0):
             return x, s_now
         if cfg.max_behaviour_ticks and run.ticks >= cfg.max_behaviour_ticks:
             return x, s_now
+        run.prev_x = x
         return None
+
+    def _stays(self, run: _Running, x: np.ndarray) -> bool:
+        """One tick of look-ahead: is the input extrapolated one tick on still in the target?"""
+        prev = run.x0 if run.prev_x is None else run.prev_x
+        return self.learner.classify(2.0 * x - prev) == run.target
 
     def _kind(self, sid: int) -> str:
         sit = self.learner.by_id.get(sid)

@@ -272,8 +272,31 @@ class Learner:
             return "not_majority"
         return None
 
+    def _any_inappropriate(self) -> bool:
+        """Vectorised pre-check of ``_inappropriate`` over all situations (the usual case)."""
+        cfg = self.cfg
+        counts = self.stn().counts
+        lut = self.lut()
+        n = len(self.order)
+        rows = counts[1:n + 1].reshape(n, -1)
+        totals = rows.sum(axis=1)
+        tops = rows.max(axis=1) if rows.shape[1] else np.zeros(n)
+        n_nodes = counts.shape[2]
+        for k, sit in enumerate(self.order):
+            if sit.n_pos < (cfg.n_min_r if sit.kind == R_KIND else cfg.n_min_t):
+                return True
+            if sit.kind == R_KIND:
+                continue
+            if sit.parent not in self.by_id:
+                return True
+            own = rows[k, sit.behaviour * n_nodes + lut[sit.parent]]
+            if totals[k] > 0 and own < tops[k] and (
+                    cfg.majority == "plurality" or tops[k] > totals[k] / 2.0):
+                return True
+        return False
+
     def _validity(self) -> None:
-        if not self.order:
+        if not self.order or not self._any_inappropriate():
             return
         handled: set[int] = set()  # recycle at most once per check
         while True:

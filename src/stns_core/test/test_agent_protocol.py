@@ -81,11 +81,12 @@ def test_planned_behaviour_stops_at_target_then_plan_goes_on():
 
 
 @pytest.mark.parametrize("lookahead", [0, 1, 3])
-def test_target_lookahead(lookahead):
+def test_target_lookahead_goes_on_while_inside(lookahead):
     agent, rid = trained_agent(target_lookahead_ticks=lookahead)
-    agent.step(FAR, 0.0, False)
-    inside = [np.array([0.4, 0.0]), np.array([0.3, 0.0]), np.array([0.2, 0.0]),
-              np.array([0.1, 0.0])]
+    start = np.array([2.5, 0.0])  # just outside R, moving inwards
+    assert agent.learner.classify(start) == 0
+    assert agent.step(start, 0.0, False) == 2
+    inside = [np.array([1.5 - 0.1 * k, 0.0]) for k in range(5)]
     for k, x in enumerate(inside):
         agent.step(x, 0.0, False)
         recs = agent.pop_records()
@@ -97,20 +98,29 @@ def test_target_lookahead(lookahead):
         pytest.fail("never stopped")
 
 
-def test_lookahead_leaving_the_target_ends_where_it_last_was_inside():
+def test_lookahead_stops_when_the_next_tick_would_leave_the_target():
     agent, rid = trained_agent(target_lookahead_ticks=3)
     agent.step(FAR, 0.0, False)
-    last_inside = np.array([0.4, 0.0])
-    agent.step(last_inside, 0.0, False)
+    agent.step(np.array([1.0, 0.0]), 0.0, False)  # entered; extrapolation (1.0 - 29) is out
+    rec = agent.pop_records()[0]
+    assert rec.ticks == 1 and rec.success and rec.next_situation == rid
+
+
+def test_lookahead_leaving_the_target_after_all_is_recorded_honestly():
+    agent, rid = trained_agent(target_lookahead_ticks=3)
+    agent.step(np.array([0.6, 0.0]), 0.0, False)
+    assert agent.learner.classify(np.array([0.6, 0.0])) == rid
+    agent._run.target = rid  # (the plan starts inside R here; force the look-ahead case)
+    agent.step(np.array([0.5, 0.0]), 0.0, False)  # inside, extrapolation inside: go on
+    assert agent.pop_records() == []
     out = np.array([9.0, 9.0])
     assert agent.learner.classify(out) == 0
-    agent.step(out, 0.0, False)
+    agent.step(out, 0.0, False)  # jumped out against the extrapolation
     rec = agent.pop_records()[0]
-    assert rec.next_situation == rid and rec.success and rec.ticks == 2
+    assert rec.next_situation == 0 and rec.success is False and rec.ticks == 2
     h = agent.learner.hist
     slot = (h.head - 1) % h.capacity
-    assert np.array_equal(h.x_next[slot], last_inside)
-    assert np.array_equal(agent._run.x0, out)  # the next step starts where the input is
+    assert np.array_equal(h.x_next[slot], out)
 
 
 def test_max_behaviour_ticks():
