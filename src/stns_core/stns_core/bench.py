@@ -156,12 +156,14 @@ def run_bench(quick: bool = False) -> list[dict]:
     return out
 
 
-def run_learn(steps: int, seeds: list[int], lookahead: int = 0) -> list[list[float]]:
+def run_learn(steps: int, seeds: list[int], lookahead: int = 0,
+              overrides: dict | None = None) -> list[list[float]]:
     from .toyworld import behaviours_per_arrival, run_learning
 
     curves = []
     for seed in seeds:
-        cfg = StnsConfig.preset("exp1", seed=seed, target_lookahead_ticks=lookahead)
+        cfg = StnsConfig.preset("exp1", seed=seed, target_lookahead_ticks=lookahead,
+                                **(overrides or {}))
         agent = StnsAgent(cfg, 2, 4)
         recs = run_learning(agent, steps, seed=seed)
         curves.append([behaviours_per_arrival(recs[k:k + 1000], 1000)
@@ -177,10 +179,22 @@ def main(args=None) -> int:
     parser.add_argument("--steps", type=int, default=5000, help="behaviour steps (--learn)")
     parser.add_argument("--seeds", type=int, default=3, help="seeds 0..N-1 (--learn)")
     parser.add_argument("--lookahead", type=int, default=0, help="target_lookahead_ticks (--learn)")
+    parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
+                        help="config override for --learn, e.g. --set random_stop=reward")
     ns = parser.parse_args(args)
     out = sys.stdout
     if ns.learn:
-        curves = run_learn(ns.steps, list(range(ns.seeds)), ns.lookahead)
+        overrides = {}
+        for item in ns.set:
+            key, _, value = item.partition("=")
+            default = getattr(StnsConfig(), key, None)
+            if isinstance(default, bool):
+                overrides[key] = value.lower() in ("1", "true", "yes")
+            elif default is not None:
+                overrides[key] = type(default)(value)
+            else:
+                overrides[key] = value
+        curves = run_learn(ns.steps, list(range(ns.seeds)), ns.lookahead, overrides)
         out.write("behaviours per goal arrival by 1000-step block (kinematic Exp. 1 sketch)\n")
         for seed, curve in enumerate(curves):
             out.write(f"seed {seed}: " + " ".join(f"{v:5.2f}" for v in curve) + "\n")

@@ -80,12 +80,14 @@ class Iprl:
         return u, plan
 
     def _expand(self, i: int, k: int, prob: float):
+        leaf = self._leaf
         if k + 1 >= self.n_max:
-            u, plan = self._leaf[i]
+            u, plan = leaf[i]
             return u, plan, 0.0, math.inf
-        if prob <= self._all_pruned[i]:
-            u, plan = self._leaf[i]
-            return u, plan, 0.0, self._all_pruned[i]
+        all_pruned = self._all_pruned
+        if prob <= all_pruned[i]:
+            u, plan = leaf[i]
+            return u, plan, 0.0, all_pruned[i]
         memo = self.memo
         if memo is not None:
             entries = memo.get((i, k))
@@ -95,22 +97,32 @@ class Iprl:
                         return u, plan, lo, hi
         self.expansions += 1
         gamma = self.gamma
+        child_leaf = k + 2 >= self.n_max  # children at depth k + 1 have leaf children
         lo, hi = 0.0, math.inf
         best_u = -math.inf
-        best_plan: Plan = ()
+        best_b, best_j, best_sub = -1, -1, ()
         for b, elems in self._nodes[i]:
             total = 0.0
             best_term = -math.inf
-            best_elem: Plan = ()
+            bj, bsub = -1, ()
             for j, p, r, pr, thr in elems:
                 if prob > thr:
-                    u_j, sub, clo, chi = self._expand(j, k + 1, prob * p)
                     if thr > lo:
                         lo = thr
-                    if clo / p > lo:
-                        lo = clo / p
-                    if chi / p < hi:
-                        hi = chi / p
+                    cp = prob * p
+                    # the child's own shortcuts, inlined (same tests on the same numbers)
+                    if child_leaf:
+                        u_j, sub = leaf[j]
+                    elif cp <= all_pruned[j]:
+                        u_j, sub = leaf[j]
+                        if all_pruned[j] / p < hi:
+                            hi = all_pruned[j] / p
+                    else:
+                        u_j, sub, clo, chi = self._expand(j, k + 1, cp)
+                        if clo / p > lo:
+                            lo = clo / p
+                        if chi / p < hi:
+                            hi = chi / p
                     term = p * (r + gamma * u_j)
                 else:
                     if thr < hi:
@@ -120,12 +132,14 @@ class Iprl:
                 total += term
                 if term > best_term:
                     best_term = term
-                    best_elem = ((b, j),) + sub
+                    bj, bsub = j, sub
             if total > best_u:
                 best_u = total
-                best_plan = best_elem
+                best_b, best_j, best_sub = b, bj, bsub
         if best_u == -math.inf or (self._untried[i] and best_u < 0.0):
             best_u, best_plan = 0.0, ()
+        else:
+            best_plan = ((best_b, best_j),) + best_sub
         if memo is not None:
             memo.setdefault((i, k), []).append((lo, hi, best_u, best_plan))
         return best_u, best_plan, lo, hi
