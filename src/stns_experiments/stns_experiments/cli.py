@@ -15,7 +15,9 @@ import json
 import logging
 import os
 import shlex
+import signal
 import sys
+import threading
 from pathlib import Path
 
 from stns_experiments.config import EXPERIMENTS, ExperimentError, merge, nest, parse_set, resolve
@@ -74,6 +76,16 @@ def build_parser() -> argparse.ArgumentParser:
     return p
 
 
+def _raise_interrupt(signum, frame) -> None:
+    raise KeyboardInterrupt
+
+
+def _stop_on_sigterm() -> None:
+    """SIGTERM (``kill PID``) stops like Ctrl-C: finished trial sets are kept and summarised."""
+    if threading.current_thread() is threading.main_thread():
+        signal.signal(signal.SIGTERM, _raise_interrupt)
+
+
 def main(args: list[str] | None = None) -> int:
     argv = list(sys.argv[1:] if args is None else args)
     ns = build_parser().parse_args(argv)
@@ -110,6 +122,7 @@ def main(args: list[str] | None = None) -> int:
     jobs = ns.jobs or os.cpu_count() or 1
     command = "stns-experiment " + shlex.join(argv)
     from stns_experiments.run import RUNNERS, Run
+    _stop_on_sigterm()
     try:
         run = Run(params, out, jobs, command, progress=not ns.quiet)
         summary = RUNNERS[ns.experiment](run)

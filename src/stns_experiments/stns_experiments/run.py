@@ -129,8 +129,19 @@ def _seeds(params: dict, stream: int = STREAM_LEARNER) -> list[dict]:
 
 
 def _write_config(run: Run, seeds: dict[str, Any]) -> None:
+    """Parameters, seeds and the full resolved world and learner configurations."""
+    import dataclasses
+
+    from stns_experiments.experiments import _libs, make_agent_config
+
+    rover_sim, _ = _libs()
+    w = run.params["world"]
+    world_cfg = dataclasses.asdict(rover_sim.WorldConfig.preset(w["preset"], **w["overrides"]))
+    agent_cfg = make_agent_config(run.params, 0).to_dict()
+    agent_cfg.pop("seed", None)
     write_json(run.out / "config.json", {"params": run.params, "seeds": seeds,
-                                         "command": run.command})
+                                         "command": run.command, "world_config": world_cfg,
+                                         "agent_config": agent_cfg})
 
 
 def _sorted(results: dict[str, dict], prefix: str) -> list[dict]:
