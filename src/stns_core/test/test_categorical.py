@@ -259,3 +259,13 @@ def test_boundary_refit_interval_versus_every_step():
         far = np.array([6.0, 0.0])
         lr.add_record(far, lr.classify(far), 0, 10.0, far, 0, True)
         assert (sit.boundary != before) is moves, mode
+
+
+@pytest.mark.parametrize("mode", ["after_modification", "never"])
+def test_stored_labels_after_a_big_modification(mode):
+    lr = make_learner(relabel=mode)
+    for k in range(4):
+        add_goal_record(lr, k)  # labelled 0 when stored: no situation existed yet
+    rid = lr.order[0].id
+    labels = set(lr.hist.s[lr.hist.valid].tolist())
+    assert labels == ({rid} if mode == "after_modification" else {0})
