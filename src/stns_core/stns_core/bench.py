@@ -62,7 +62,11 @@ class _Regions:
         return self.means[k] + self.rng.normal(0.0, self.std, self.dim)
 
     def margin(self) -> np.ndarray:
-        return self.rng.uniform(-150.0, 150.0, self.dim)
+        """A point of the margin space: at least 30 from every region's centre."""
+        while True:
+            x = self.rng.uniform(-150.0, 150.0, self.dim)
+            if np.min(np.linalg.norm(self.means - x, axis=1)) > 30.0:
+                return x
 
     def record(self):
         """(x, b, reward, x_next, terminal): one behaviour step of a mostly-good policy.
