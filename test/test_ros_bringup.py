@@ -34,8 +34,8 @@ def test_bag_opens_in_rosbags_and_mcap_ros2_with_counts_of_the_summary(plain_run
     assert EXPECTED <= set(counts), EXPECTED - set(counts)
     assert counts == summary["topic_counts"]
     assert n_steps == summary["steps"] == 150
-    assert counts[T.GOAL] == counts[T.REWARD] == counts[T.CLOCK] == counts[T.ODOM] == summary["ticks"]
-    assert counts[T.CMD_VEL] == summary["ticks"] - 1  # the last frame is not answered
+    assert counts[T.GOAL] == counts[T.REWARD] == counts[T.CLOCK] == counts[T.ODOM] == summary["frames"]
+    assert counts[T.CMD_VEL] == summary["frames"] - 1  # the last frame is not answered
 
     from mcap_ros2.reader import read_ros2_messages
 
@@ -63,6 +63,7 @@ def test_lockstep_ros_run_makes_the_headless_decisions(plain_run):
     obs, _ = world.reset()
     reward, term = 0.0, False
     records = []
+    ticks = 0
     while agent.behaviour_steps < 150:
         a = agent.step(obs, reward, term)
         records.extend(agent.pop_records())
@@ -71,9 +72,12 @@ def test_lockstep_ros_run_makes_the_headless_decisions(plain_run):
             reward, term = 0.0, False
             continue
         obs, reward, term, _, _ = world.step(a)
+        ticks += 1
     records.extend(agent.pop_records())
     world.close()
     headless = [json.loads(json.dumps(record_to_dict(r))) for r in records]
     ros = [{k: v for k, v in r.items() if k != "stamp_ns"} for r in run.steps]
     assert [r["behaviour"] for r in ros] == [r["behaviour"] for r in headless]
     assert ros == headless
+    summary = json.loads((plain_run / "summary.json").read_text())
+    assert summary["ticks"] == ticks

@@ -1,5 +1,6 @@
 """The fault injector's change shows in the simulator's behaviour and in the bag."""
 
+import itertools
 import json
 import math
 
@@ -23,7 +24,7 @@ def _implied_goals(run, rotation_deg):
 
 
 def _consistent(goals, ts):
-    pairs = [(a, b) for a, b in zip(ts, ts[1:]) if goals[a][2] == goals[b][2]]  # same trial
+    pairs = [(a, b) for a, b in itertools.pairwise(ts) if goals[a][2] == goals[b][2]]  # same trial
     dev = [math.dist(goals[a][:2], goals[b][:2]) for a, b in pairs]
     return max(dev) < 1e-6 if dev else None, len(pairs)
 

@@ -147,6 +147,7 @@ class StnsAgentNode(Node):
         self._t_first = None
         self._t_done = None
         self.frames = 0
+        self.ticks = 0
         self.create_timer(p["watchdog_timeout"] / 2.0, self._watchdog, clock=steady)
         self.get_logger().info(
             f"stns_agent ready: learner {p['learner_preset']} seed={p['seed']} "
@@ -215,6 +216,8 @@ class StnsAgentNode(Node):
         action, (v, w), records = self.driver.on_frame(np.asarray(obs, dtype=np.float64),
                                                        reward, terminated)
         self._last_t = t
+        if action is not None:
+            self.ticks += 1
         if records:
             self._explain(records, t)
             every = self.params["progress_every"]
@@ -222,18 +225,16 @@ class StnsAgentNode(Node):
                 self.get_logger().info(
                     f"progress {self.driver.behaviour_steps}/{self.max_steps or '-'} "
                     f"behaviour steps, {self.frames} frames")
-        if self.max_steps and self.driver.behaviour_steps >= self.max_steps:
-            self.done = True
-            self._t_done = time.monotonic()
-            self._last_answer = None
-            self.get_logger().info(f"{self.driver.behaviour_steps} behaviour steps: done")
-            return
         c = self._cmd
         set_stamp(c.header.stamp, t)
         c.twist.linear.x = v
         c.twist.angular.z = w
         self._last_answer = serialize_message(c)
-        self.pub_cmd.publish(self._last_answer)
+        self.pub_cmd.publish(self._last_answer)  # the last one too, as the headless loop
+        if self.max_steps and self.driver.behaviour_steps >= self.max_steps:
+            self.done = True
+            self._t_done = time.monotonic()
+            self.get_logger().info(f"{self.driver.behaviour_steps} behaviour steps: done")
 
     def _watchdog(self) -> None:
         if self._stopped or self._last_t < 0:
@@ -288,9 +289,11 @@ class StnsAgentNode(Node):
             with open(stats, "w") as f:
                 json.dump({
                     "wall_seconds": round(wall, 3),
-                    "frames": self.frames,
-                    "behaviour_steps": self.driver.behaviour_steps,
-                    "ticks_per_second": round(self.frames / wall, 1) if wall > 0 else None,
+                    "agent_frames": self.frames,
+                    "agent_ticks": self.ticks,
+                    "agent_behaviour_steps": self.driver.behaviour_steps,
+                    "frames_per_second": round(self.frames / wall, 1) if wall > 0 else None,
+                    "ticks_per_second": round(self.ticks / wall, 1) if wall > 0 else None,
                     "behaviour_steps_per_second":
                         round(self.driver.behaviour_steps / wall, 1) if wall > 0 else None,
                 }, f)

@@ -83,16 +83,16 @@ def verify(run: RunData) -> str:
                     f"behaviour step {made} differs at t={t / 1e9:.1f} s "
                     f"(field: (recorded, fresh agent)): {diff}")
             made += 1
-        if made >= target:
-            break
         if t in run.cmds:
             if run.cmds[t] != cmd:
                 raise VerifyError(
                     f"command at t={t / 1e9:.1f} s differs: recorded (v={run.cmds[t][0]!r} m/s, "
                     f"w={run.cmds[t][1]!r} rad/s), fresh agent (v={cmd[0]!r}, w={cmd[1]!r})")
             compared_cmds += 1
-        else:
+        elif made < target:
             raise VerifyError(f"no recorded command answers the frame at t={t / 1e9:.1f} s")
+        if made >= target:
+            break
     if made < target:
         raise VerifyError(f"the bag has {target} behaviour steps, the frames gave only {made}")
     return (f"verify: OK: {made} behaviour steps and {compared_cmds} commands of "

@@ -221,8 +221,7 @@ def node_parameters(cfg: Mapping[str, Any], out_dir: Path, run_config_json: str
         "state_out": str(out_dir / "learner_state") if learner["save_state"] else "",
     }
     injector = {
-        # sim time only matters to at_time triggers; without them the injector skips /clock
-        "use_sim_time": any("at_time" in e for e in cfg["faults"]["faults"]),
+        "use_sim_time": True,  # at_time triggers and the sim-time stamps of the events
         "scenario_json": json.dumps(cfg["faults"]),
         "sim_node": "rover_sim",
     }

@@ -86,6 +86,14 @@ def load_run(bag: str | os.PathLike[str]) -> RunData:
     return run
 
 
+def _ticks(run: RunData) -> int:
+    """world.step calls: every frame but the first, and but the new-trial frames that follow
+    an answered goal arrival."""
+    stamps = sorted(run.frames)
+    resets = sum(1 for t in stamps[:-1] if run.frames[t].get("reward", (0, False))[1])
+    return max(0, len(stamps) - 1 - resets)
+
+
 def summarize(run: RunData, bag: str | os.PathLike[str] | None = None) -> dict[str, Any]:
     cfg = run.config
     steps = run.steps
@@ -117,7 +125,8 @@ def summarize(run: RunData, bag: str | os.PathLike[str] | None = None) -> dict[s
         "mode": cfg.get("run", {}).get("mode"),
         "trial_sets": 1,
         "steps": behaviour_steps,
-        "ticks": len(run.frames),
+        "frames": len(run.frames),
+        "ticks": _ticks(run),
         "arrivals": len(arrivals),
         "block_size": BLOCK_SIZE,
         "behaviours_to_goal_by_block": blocks,
@@ -199,7 +208,8 @@ def format_summary(s: dict[str, Any]) -> str:
 
     lines = [
         f"run {s['experiment']} seed={f(s.get('seed'))} mode={f(s.get('mode'))}",
-        f"  behaviour steps {s['steps']}, ticks {s['ticks']}, goal arrivals {s['arrivals']}",
+        f"  behaviour steps {s['steps']}, control ticks {s['ticks']} ({s['frames']} frames), "
+        f"goal arrivals {s['arrivals']}",
         f"  final behaviour steps to goal {f(s['final_behaviours_to_goal'])}, "
         f"success R {f(s['success_rate_r'])}, T {f(s['success_rate_t'])}, "
         f"situations {f(s['situations_final'])}",
