@@ -73,7 +73,7 @@ class Classifier:
             idx = np.flatnonzero(open_)
             if len(idx) == 0:
                 break
-            z = (xs[idx] - self._means[k]) @ self._whiten[k].T
+            z = np.einsum("ij,kj->ik", xs[idx] - self._means[k], self._whiten[k])
             inside = idx[np.einsum("ij,ij->i", z, z) <= self._b2[k]]
             if len(inside) == 0:
                 continue

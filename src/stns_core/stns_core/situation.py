@@ -10,6 +10,7 @@ belongs if the nearest instance is positive.
 from __future__ import annotations
 
 import numpy as np
+from scipy.spatial import cKDTree
 
 R_KIND = "R"
 T_KIND = "T"
@@ -104,7 +105,7 @@ class Situation:
         self.mean = pts.mean(axis=0)
         self.cov = regularised_cov(pts, cov_reg, self.mean)
         self._derive_factors()
-        z = (pts - self.mean) @ self.whiten.T
+        z = np.einsum("ij,kj->ik", pts - self.mean, self.whiten)  # (BLAS threads: slow here)
         self.boundary = float(np.sqrt(np.max(np.einsum("ij,ij->i", z, z))))
         self.fitted = True
 
@@ -128,7 +129,7 @@ class Situation:
         return self.boundary * self.boundary * (1.0 + BOUNDARY_TOL) + 1e-12
 
     def mahalanobis2(self, x: np.ndarray) -> np.ndarray:
-        z = (np.atleast_2d(x) - self.mean) @ self.whiten.T
+        z = np.einsum("ij,kj->ik", np.atleast_2d(x) - self.mean, self.whiten)
         return np.einsum("ij,ij->i", z, z)
 
     # -- microscopic test -------------------------------------------------------------
@@ -151,18 +152,14 @@ class Situation:
         return bool(self._nn_lab[int(np.argmin(score))])
 
     def nn_accepts_batch(self, xq: np.ndarray, hist_x: np.ndarray) -> np.ndarray:
+        """``nn_accepts`` for many inputs (a k-d tree over the scaled instances)."""
         if self.nn_dirty:
             self._nn_cache(hist_x)
         out = np.zeros(len(xq), dtype=bool)
         if len(self._nn_lab) == 0 or len(xq) == 0:
             return out
-        q = xq / self.std
-        chunk = max(1, 2_000_000 // max(1, len(self._nn_lab)))
-        for start in range(0, len(q), chunk):
-            block = q[start:start + chunk]
-            score = self._nn_sqn[None, :] - 2.0 * (block @ self._nn_pts.T)
-            out[start:start + chunk] = self._nn_lab[np.argmin(score, axis=1)]
-        return out
+        _, nearest = cKDTree(self._nn_pts).query(xq / self.std, k=1)
+        return self._nn_lab[nearest]
 
     def accepts(self, xq: np.ndarray, hist_x: np.ndarray) -> bool:
         """Full bitten-ellipsoid test: ellipsoid first, nearest neighbour only inside."""
