@@ -43,6 +43,8 @@ from stns_ros.runtime import spin
 from stns_ros.sim_node import FRAME_QOS
 
 EXPLAIN_QOS = 100
+# Lowest values of StnsConfig's integer fields (stns_core validates them too); others are >= 1.
+INT_LOWEST = {"seed": 0, "target_lookahead_ticks": 0, "max_behaviour_ticks": 0, "history_size": 2}
 
 
 def learner_fields() -> list[dataclasses.Field]:
@@ -70,7 +72,8 @@ class StnsAgentNode(Node):
             if f.name in ("gamma", "p_min"):
                 rng = (0.0, 1.0)
             elif isinstance(default, int) and not isinstance(default, bool):
-                rng = (0, 2**62)
+                lowest = INT_LOWEST.get(f.name, 1)
+                rng = (lowest, 2**32 - 1 if f.name == "seed" else 10**9)
             p[f.name] = declare(self, f.name, default,
                                 f"StnsConfig.{f.name} (stns_core; preset value by default).",
                                 range=rng, read_only=True)
