@@ -5,6 +5,7 @@ import json
 import math
 
 import numpy as np
+import pytest
 from stns_ros.summary import load_run
 
 
@@ -52,3 +53,22 @@ def test_rotation_fault_is_applied_seen_and_recorded(fault_run):
     bad, _ = _consistent(healthy, after)
     assert bad is False
     assert np.isfinite(t_event)
+
+
+def test_free_running_run_with_a_timed_wheel_ramp(tmp_path):
+    """Free-running at 20x real time; a ramp triggered by sim time reaches the simulator."""
+    from conftest import bringup, run_config
+
+    cfg = run_config(tmp_path, run={"name": "free", "seed": 4, "steps": 40,
+                                    "mode": "free_running", "real_time_factor": 20.0},
+                     faults={"name": "ramp", "faults": [
+                         {"at_time": 5.0, "ramp": {"left_wheel_gain": 0.8}, "duration": 2.0,
+                          "increments": 4}]})
+    res = bringup(cfg, tmp_path / "run")
+    assert res.returncode == 0, res.stdout + res.stderr
+    run = load_run(tmp_path / "run" / "bag")
+    gains = [ev["values"]["left_wheel_gain"] for ev in run.faults if ev["applied"]]
+    assert gains == [0.95, 0.9, 0.85, 0.8] or gains == pytest.approx([0.95, 0.9, 0.85, 0.8])
+    assert all(ev["stamp_ns"] >= 5.0e9 for ev in run.faults)
+    assert run.counts["/parameter_events"] >= 4
+    assert len(run.steps) == 40

@@ -78,3 +78,43 @@ def test_recorder_records_raw_messages(rclpy_context, tmp_path):
     node.destroy_node()
     got = [json.loads(decode(m).data)["i"] for m in read_messages(tmp_path / "bag")]
     assert got == [0, 1, 2]
+
+
+def test_agent_answers_a_frame_and_its_watchdog_stops_the_rover(rclpy_context):
+    import rclpy
+    from geometry_msgs.msg import PointStamped, TwistStamped, Vector3Stamped
+    from stns_ros.agent_node import StnsAgentNode
+    from stns_ros.sim_node import FRAME_QOS
+
+    agent = StnsAgentNode(parameter_overrides=[Parameter("watchdog_timeout", value=0.1)])
+    probe = rclpy.create_node("probe")
+    got = []
+    probe.create_subscription(TwistStamped, "/cmd_vel", got.append, FRAME_QOS)
+    ex = rclpy.executors.SingleThreadedExecutor()
+    ex.add_node(agent)
+    ex.add_node(probe)
+    try:
+        for _ in range(40):  # discovery
+            ex.spin_once(timeout_sec=0.05)
+        goal = PointStamped()
+        goal.header.stamp.sec = 3
+        goal.point.x, goal.point.y = 1.0, -0.5
+        reward = Vector3Stamped()
+        reward.header.stamp.sec = 3
+        agent._on_goal(goal)
+        assert agent.frames == 0  # waits for the reward of the same stamp
+        agent._on_reward(reward)
+        assert agent.frames == 1
+        for _ in range(40):
+            ex.spin_once(timeout_sec=0.05)
+            if len(got) >= 2:
+                break
+        answer, stop = got[0], got[-1]
+        assert answer.header.stamp.sec == 3 and answer.header.frame_id == "base_link"
+        assert (answer.twist.linear.x, answer.twist.angular.z) != (0.0, 0.0)
+        assert stop.header.frame_id == "watchdog"
+        assert (stop.twist.linear.x, stop.twist.angular.z) == (0.0, 0.0)
+    finally:
+        agent.close()
+        agent.destroy_node()
+        probe.destroy_node()
