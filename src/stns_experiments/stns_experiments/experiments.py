@@ -184,11 +184,13 @@ def _finish(task: dict, table: dict, n_steps: int, extra: dict, agent=None,
         if params["save_states"]:
             agent.save(paths["state"])
     wall = time.monotonic() - t0
+    cpu = time.process_time() - task.get("_cpu0", 0.0)
     bs, ar = M.block_counts(table, params["block_size"], n_steps)
     res = {
         "key": task["key"], "index": task["index"], "seeds": task["seeds"], "steps": n_steps,
         "block_behaviours": bs.tolist(), "block_arrivals": ar.tolist(),
         "wall_seconds": wall, "steps_per_second": n_steps / wall if wall > 0 else None,
+        "cpu_seconds": cpu, "steps_per_cpu_second": n_steps / cpu if cpu > 0 else None,
         "situations_final": None if situations is None else len(situations),
         "situations": situations,
         **window_result(table, n_steps, params, situations), **extra,
@@ -439,6 +441,10 @@ def summarise_sets(results: list[dict], params: dict, steps: int) -> dict:
     walls = [r["wall_seconds"] for r in results]
     sps = [r["steps_per_second"] for r in results if r.get("steps_per_second")]
     out["set_wall_seconds_mean"] = float(np.mean(walls))
+    cpus = [r["cpu_seconds"] for r in results if r.get("cpu_seconds")]
+    if cpus:
+        out["set_cpu_seconds_mean"] = float(np.mean(cpus))
+        out["behaviour_steps_per_cpu_second"] = float(steps * len(cpus) / np.sum(cpus))
     out["behaviour_steps_per_second"] = float(np.mean(sps)) if sps else None
     fs = [r.get("first_situation_step") for r in results if r.get("first_situation_step")]
     if fs:
@@ -480,4 +486,5 @@ TASK_FUNCTIONS = {"stns": task_stns, "random": task_random, "grid": task_grid,
 
 def dispatch(task: dict, progress) -> dict:
     """Worker entry: run the task function named by ``task["fn"]``."""
+    task = {**task, "_cpu0": time.process_time()}
     return TASK_FUNCTIONS[task["fn"]](task, progress)

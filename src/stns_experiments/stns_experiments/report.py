@@ -57,8 +57,11 @@ def learning_table(s: dict) -> str:
     if s.get("first_situation_step_mean") is not None:
         rows.append(("first situation after (steps, mean)", _num(paper.get("first_situation_step"), 1),
                      _num(s.get("first_situation_step_mean"), 1)))
-    rows.append(("speed: behaviour steps per second per process", "-",
+    rows.append(("speed: behaviour steps per second per process (wall, shared CPU)", "-",
                  _num(s.get("behaviour_steps_per_second"), 0)))
+    if s.get("set_cpu_seconds_mean") is not None:
+        rows.append((f"speed: CPU seconds per {s.get('steps')}-step trial set (one core)", "-",
+                     _num(s.get("set_cpu_seconds_mean"), 1)))
     head = "| what | paper | measured |\n|---|---|---|\n"
     return head + "\n".join(f"| {a} | {b} | {c} |" for a, b, c in rows)
 

@@ -63,7 +63,7 @@ def test_smoke_exp3(tmp_path):
 
 
 def test_smoke_offline(tmp_path):
-    _, s = _run(tmp_path, ["offline", "--steps", "300", "--set", "max_random_behaviours=2000"]
+    _, s = _run(tmp_path, ["offline", "--steps", "600", "--set", "max_random_behaviours=2000"]
                 + SMALL)
     assert s["online_behaviours_mean"] > 0 and s["random_behaviours_mean"] > 0
 
