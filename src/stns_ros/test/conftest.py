@@ -4,7 +4,9 @@ import random
 import pytest
 
 # In-process rclpy tests get a domain of their own (colcon runs packages in parallel).
-os.environ["ROS_DOMAIN_ID"] = str(random.Random(os.getpid()).randint(150, 200) % 102)
+_theirs = os.environ.get("ROS_DOMAIN_ID")
+os.environ["ROS_DOMAIN_ID"] = str(random.SystemRandom().choice(
+    [d for d in range(1, 101) if str(d) != _theirs]))
 
 
 @pytest.fixture
