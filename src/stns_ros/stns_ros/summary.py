@@ -181,18 +181,17 @@ def write_plots(run: RunData, summary: dict[str, Any], out_dir: str | os.PathLik
     ax.add_patch(plt.Rectangle((0, 0), room, room, fill=False, lw=2))
     if run.odom:
         n = len(run.odom)
-        tail = run.odom[max(0, n - 600):]
-        ax.plot([o[1] for o in tail], [o[2] for o in tail], lw=0.8, color="tab:blue",
-                label="last 600 ticks")
-        head = run.odom[:600]
-        ax.plot([o[1] for o in head], [o[2] for o in head], lw=0.8, color="tab:gray",
-                alpha=0.6, label="first 600 ticks")
+        for part, color, alpha, label in ((run.odom[max(0, n - 600):], "tab:blue", 1.0,
+                                           "last 600 ticks"),
+                                          (run.odom[:600], "tab:gray", 0.6, "first 600 ticks")):
+            xs, ys = _break_jumps(part)
+            ax.plot(xs, ys, lw=0.8, color=color, alpha=alpha, label=label)
     ax.set_xlim(-5, room + 5)
     ax.set_ylim(-5, room + 5)
     ax.set_aspect("equal")
     ax.set_xlabel("x (u = 1/16 m)")
     ax.set_ylabel("y (u)")
-    ax.set_title("rover trajectory (odometry)")
+    ax.set_title("rover trajectory (odometry; gaps = re-placed)")
     ax.legend(loc="upper right", fontsize=8)
     p = out / "trajectory.png"
     fig.tight_layout()
@@ -200,6 +199,21 @@ def write_plots(run: RunData, summary: dict[str, Any], out_dir: str | os.PathLik
     plt.close(fig)
     paths.append(p)
     return paths
+
+
+def _break_jumps(odom: list, max_step: float = 4.0) -> tuple[list, list]:
+    """x, y lists with a gap (NaN) wherever the rover was placed rather than driven
+    (a new trial or a post-collision re-placement)."""
+    xs, ys = [], []
+    prev = None
+    for _, x, y, _ in odom:
+        if prev is not None and math.hypot(x - prev[0], y - prev[1]) > max_step:
+            xs.append(float("nan"))
+            ys.append(float("nan"))
+        xs.append(x)
+        ys.append(y)
+        prev = (x, y)
+    return xs, ys
 
 
 def format_summary(s: dict[str, Any]) -> str:
