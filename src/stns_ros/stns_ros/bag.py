@@ -328,3 +328,33 @@ def read_metadata(bag: str | os.PathLike[str]) -> dict[str, Any]:
 
 def json_custom(value: Any) -> str:
     return json.dumps(value, sort_keys=True, separators=(",", ":"))
+
+
+def recover(bag: str | os.PathLike[str]) -> int:
+    """Rewrite the readable prefix of a bag whose recorder was killed (no summary, no
+    metadata.yaml) into a complete rosbag2 directory in place; return the messages kept.
+    A complete bag is left alone (returns its message count)."""
+    path = Path(bag)
+    if (path / "metadata.yaml").exists():
+        return int(read_metadata(path)["message_count"])
+    src = mcap_file(path)
+    tmp = path.with_name(path.name + ".recovering")
+    if tmp.exists():
+        raise StnsRosError(f"{str(tmp)!r} exists (an earlier recovery was interrupted)")
+    n = 0
+    with BagWriter(tmp) as w:
+        for m in _scan_prefix(src, None):
+            w.add_topic(m.topic, m.msgtype)
+            w.write(m.topic, m.data, m.log_time)
+            n += 1
+        w.custom_data["stns_recovered_from"] = "a recording cut short (prefix kept)"
+    damaged = path.with_name(path.name + ".damaged")
+    path.rename(damaged)
+    tmp.rename(path)
+    (path / f"{tmp.name}.mcap").rename(path / f"{path.name}.mcap")
+    meta = (path / "metadata.yaml").read_text().replace(f"{tmp.name}.mcap", f"{path.name}.mcap")
+    (path / "metadata.yaml").write_text(meta)
+    import shutil
+
+    shutil.rmtree(damaged)
+    return n

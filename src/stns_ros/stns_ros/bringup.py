@@ -160,6 +160,11 @@ def finish(cfg: dict, out: Path, rc: int, quiet: bool) -> int:
     if not cfg["recording"]["enabled"] or not bag.exists():
         sys.stderr.write("stns_bringup: no bag recorded, no summary\n")
         return rc or 0
+    if not (bag / "metadata.yaml").exists():  # the recorder was killed: keep its prefix
+        from stns_ros.bag import recover
+
+        n = recover(bag)
+        sys.stderr.write(f"stns_bringup: the bag was cut short; recovered {n} messages\n")
     run_data = load_run(bag)
     summary = summarize(run_data, bag)
     stats_path = out / "agent_stats.json"

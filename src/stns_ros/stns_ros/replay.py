@@ -146,12 +146,18 @@ def main(args=None) -> None:
     parser.add_argument("--verify", action="store_true",
                         help="check a fresh agent makes the recorded decisions (no republishing)")
     parser.add_argument("--no-publish", action="store_true", help="do not republish")
+    parser.add_argument("--recover", action="store_true",
+                        help="first rewrite a bag cut short (killed recorder) into a complete one")
     parser.add_argument("--out", help="folder for summary.json and plots (default BAG/../replay)")
     ns = parser.parse_args(args)
     try:
         bag = require_bag(ns.bag)
         if ns.rate < 0:
             raise StnsRosError(f"--rate must be >= 0, got {ns.rate}")
+        if ns.recover:
+            from stns_ros.bag import recover
+
+            print(f"recovered: {recover(bag)} messages in {bag}")
         run = load_run(bag)
         summary = summarize(run, bag)
         out = Path(ns.out) if ns.out else bag.resolve().parent / "replay"

@@ -5,7 +5,14 @@ import pytest
 from geometry_msgs.msg import TwistStamped
 from rclpy.serialization import serialize_message
 from std_msgs.msg import String
-from stns_ros.bag import BagWriter, decode, message_definition, read_messages, read_metadata
+from stns_ros.bag import (
+    BagWriter,
+    decode,
+    message_definition,
+    read_messages,
+    read_metadata,
+    recover,
+)
 from stns_ros.errors import StnsRosError
 
 
@@ -69,6 +76,15 @@ def test_killed_writer_leaves_a_readable_prefix(tmp_path):
     msgs = [m for m in read_messages(killed) if m.topic == "/cmd_vel"]
     assert len(msgs) >= 301  # everything up to the flush, at least
     assert [decode(m).twist.linear.x for m in msgs] == [float(i) for i in range(len(msgs))]
+
+    n = recover(killed)  # rewrite the prefix as a complete bag that every reader opens
+    assert n == len(list(read_messages(killed))) and (killed / "metadata.yaml").exists()
+    from rosbags.highlevel import AnyReader
+
+    with AnyReader([killed]) as reader:
+        assert sum(1 for _ in reader.messages()) == n
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["b", "killed"]
+    assert recover(killed) == n  # a complete bag is left alone
 
 
 def test_refuses_to_overwrite_and_unknown_topic(tmp_path):
