@@ -74,3 +74,11 @@ def test_learning_smoke_exp1_kinematic():
     assert kinds == {"R", "T"}
     planned = [r for r in records[-1000:] if r.planned and r.kind in ("R", "T")]
     assert sum(r.success for r in planned) / len(planned) > 0.7
+
+
+def test_iprl_memo_does_not_change_the_agents_decisions():
+    out = []
+    for memo in (True, False):
+        agent = StnsAgent(StnsConfig.preset("exp1", seed=4, iprl_memo=memo), 2, 4)
+        out.append([(r.behaviour, r.target, r.ticks) for r in run_learning(agent, 900, seed=4)])
+    assert out[0] == out[1]
