@@ -19,7 +19,7 @@ import numpy as np
 
 from .categorical import GOAL, Learner
 from .config import StnsConfig
-from .errors import StnsDimensionError, StnsInputError
+from .errors import StnsDimensionError, StnsError, StnsInputError
 from .history import ARRIVAL
 from .records import StepRecord
 
@@ -201,7 +201,8 @@ class StnsAgent:
 
     def _close(self, x_end, s_end: int, terminal: bool) -> None:
         run = self._run
-        assert run is not None
+        if run is None:
+            raise StnsError("internal: no behaviour step is running")
         success: bool | None = None
         if run.planned:
             success = bool(terminal) if run.target == GOAL else s_end == run.target

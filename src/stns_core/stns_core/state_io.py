@@ -33,8 +33,6 @@ FORMAT_VERSION = 1
 
 
 def save_agent(agent: StnsAgent, path: str | PathLike) -> None:
-    from .agent import _Running  # noqa: F401  (documented type of agent._run)
-
     path = os.fspath(path)
     learner = agent.learner
     arrays: dict[str, np.ndarray] = {}
