@@ -118,9 +118,9 @@ def write_doc_pictures(out_dir: str | Path, seed: int = 0) -> list[Path]:
         paths.append(render_topdown(world, None, out / "sectors.png", show_sectors=True,
                                     title="Six range sectors (readings in u), rover at (40, 45), 20 deg"))
     with RoverWorld(_Config.preset("exp3"), seed=seed) as world:
-        world.reset(options={"pose": (30.0, 50.0, 0.0)})
+        world.reset(options={"pose": (30.0, 44.0, 0.0)})
         paths.append(render_topdown(world, None, out / "exp3_layout.png", show_sectors=True,
-                                    title="Exp. 3: obstacle 8 x 40 at (60, 50), goal (80, 50)"))
+                                    title="Exp. 3: obstacle 8 x 24 at (55, 50), goal (80, 50)"))
     with RoverWorld(_Config.preset("exp1"), seed=seed) as world:
         world.reset()
         policy = np.random.default_rng([seed, 1])

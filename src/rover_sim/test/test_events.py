@@ -84,11 +84,11 @@ def test_collision_undo_returns_to_where_the_motion_began(make_world):
 
 def test_obstacle_collision_is_minus_one(make_world):
     world = make_world("exp3", post_collision="stay")
-    # obstacle spans x 56..64, y 30..70; drive east into it
-    world.reset(options={"pose": (40.0, 50.0, 0.0)})
+    # obstacle spans x 51..59, y 38..62; drive east into it
+    world.reset(options={"pose": (20.0, 50.0, 0.0)})
     out = world.run_behaviour(Action.FORWARD)
-    assert out.events == ("collision",) and out.reward == -1.0
-    assert world.pose[0] + 8.0 <= 56.0 + 1e-6
+    assert out.events == ("collision",) and out.reward == -1.0 and out.ticks > 10
+    assert 49.0 <= world.pose[0] + 8.0 <= 51.0 + 1e-6
 
 
 def test_over_rotation_after_90_degrees(make_world):

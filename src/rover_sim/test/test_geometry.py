@@ -36,4 +36,4 @@ def test_wall_depths_per_wall():
     d = penetration_depths((7.0, 95.0, 0.0), cfg)  # half-length 8, half-width 6
     assert d == pytest.approx((1.0, 0.0, 0.0, 1.0))
     d3 = penetration_depths((58.0, 50.0, 0.0), WorldConfig.preset("exp3"))
-    assert len(d3) == 5 and d3[4] == pytest.approx(10.0)  # obstacle x 56..64: 66 - 56
+    assert len(d3) == 5 and d3[4] == pytest.approx(9.0)  # rover x 50..66, obstacle 51..59

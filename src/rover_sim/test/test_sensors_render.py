@@ -38,10 +38,10 @@ def test_wall_seen_in_its_sector(make_world, k):
 
 def test_obstacle_seen_front_left_in_exp3(make_world):
     world = make_world("exp3")
-    # obstacle x 56..64, y 30..70; rover at (40, 50) facing south: obstacle is to the left
+    # obstacle x 51..59, y 38..62; rover at (40, 50) facing south: obstacle is to the left
     obs, _ = world.reset(options={"pose": (40.0, 50.0, -math.pi / 2)})
     ranges = obs[2:]
-    assert ranges[1] == pytest.approx(16.0, abs=1e-3)  # perpendicular ray at +90 deg
+    assert ranges[1] == pytest.approx(11.0, abs=1e-3)  # perpendicular ray at +90 deg
     assert ranges[1] == ranges.min()
     assert ranges[4] == pytest.approx(40.0, abs=1e-3)  # west wall at -90 deg
 
