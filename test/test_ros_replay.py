@@ -58,3 +58,15 @@ def test_republish_as_fast_as_possible(plain_run, tmp_path):
     assert res.returncode == 0, res.stdout + res.stderr
     total = sum(read_metadata(plain_run / "bag")["message_count"] for _ in [0])
     assert f"republished {total} messages" in res.stdout
+
+
+def test_exp3_run_with_the_range_sensor_verifies(tmp_path):
+    """8-D input: the six float32 ranges cross the ROS boundary exactly."""
+    from conftest import bringup, run_config
+
+    cfg = run_config(tmp_path, run={"name": "e3", "seed": 2, "steps": 40},
+                     world={"preset": "exp3"}, learner={"preset": "exp3"})
+    res = bringup(cfg, tmp_path / "run")
+    assert res.returncode == 0, res.stdout + res.stderr
+    res = replay(tmp_path / "run" / "bag", "--verify", "--out", tmp_path / "replay")
+    assert res.returncode == 0 and "verify: OK: 40 behaviour steps" in res.stdout, res.stdout
