@@ -7,6 +7,7 @@ second, headless, single process.
 from __future__ import annotations
 
 import argparse
+import os
 import platform
 import time
 from collections.abc import Sequence
@@ -17,25 +18,27 @@ from rover_sim.config import TASKS, WorldConfig
 from rover_sim.world import RoverWorld
 
 
-def bench_ticks(config: WorldConfig, ticks: int, seed: int = 0) -> float:
-    """Control ticks per second for a cycle of actions changed every 10 ticks."""
+def bench_ticks(config: WorldConfig, ticks: int, seed: int = 0) -> tuple[float, float]:
+    """(wall s, CPU s) of `ticks` control ticks, actions cycled every 10 ticks."""
     with RoverWorld(config, seed=seed) as world:
         world.reset()
-        t0 = time.perf_counter()
+        t0, c0 = time.perf_counter(), time.process_time()
         for i in range(ticks):
             _, _, terminated, _, _ = world.step((i // 10) % 4)
             if terminated:
                 world.reset()
-        return ticks / (time.perf_counter() - t0)
+        return time.perf_counter() - t0, time.process_time() - c0
 
 
-def bench_behaviours(config: WorldConfig, steps: int, seed: int = 0) -> tuple[float, int, int]:
-    """(seconds, behaviour steps, ticks) of a random behaviour policy run."""
+def bench_behaviours(
+    config: WorldConfig, steps: int, seed: int = 0
+) -> tuple[float, float, int, int]:
+    """(wall s, CPU s, behaviour steps, ticks) of a random behaviour policy run."""
     policy = np.random.default_rng([seed, 1])
     done = ticks = 0
     with RoverWorld(config, seed=seed) as world:
         world.reset()
-        t0 = time.perf_counter()
+        t0, c0 = time.perf_counter(), time.process_time()
         while done < steps:
             out = world.run_behaviour(int(policy.integers(4)))
             done += 1
@@ -43,7 +46,7 @@ def bench_behaviours(config: WorldConfig, steps: int, seed: int = 0) -> tuple[fl
             if out.terminated:
                 done += 1
                 world.reset()
-        return time.perf_counter() - t0, done, ticks
+        return time.perf_counter() - t0, time.process_time() - c0, done, ticks
 
 
 def main(args: Sequence[str] | None = None) -> int:
@@ -58,16 +61,26 @@ def main(args: Sequence[str] | None = None) -> int:
     ns = parser.parse_args(args)
     if ns.ticks < 1 or ns.steps < 1:
         parser.error(f"--ticks and --steps must be >= 1, got {ns.ticks} and {ns.steps}")
-    print(f"python {platform.python_version()} on {platform.machine()}, one process")
+    load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
+    print(
+        f"python {platform.python_version()} on {platform.machine()}, one process, "
+        f"{os.cpu_count()} cores, load average {load:.1f}; "
+        "rates per wall-clock second (per CPU second of this process)"
+    )
     tasks = TASKS if ns.task == "all" else (ns.task,)
     for task in tasks:
         config = WorldConfig.preset(task)
-        tps = bench_ticks(config, ns.ticks, ns.seed)
-        secs, steps, ticks = bench_behaviours(config, ns.steps, ns.seed)
+        wall, cpu = bench_ticks(config, ns.ticks, ns.seed)
         print(
-            f"{task}: {tps:8.0f} control ticks/s ({ns.ticks} ticks); random policy: "
-            f"{steps} behaviour steps in {secs:.1f} s = {steps / secs:.0f} steps/s "
-            f"({ticks / steps:.1f} ticks/step, {ticks / secs:.0f} ticks/s)",
+            f"{task}: control ticks: {ns.ticks} in {wall:.1f} s = {ns.ticks / wall:.0f} ticks/s "
+            f"({ns.ticks / cpu:.0f} per CPU s)",
+            flush=True,
+        )
+        wall, cpu, steps, ticks = bench_behaviours(config, ns.steps, ns.seed)
+        print(
+            f"{task}: random policy: {steps} behaviour steps in {wall:.1f} s "
+            f"(CPU {cpu:.1f} s) = {steps / wall:.0f} steps/s ({steps / cpu:.0f} per CPU s), "
+            f"{ticks / steps:.1f} ticks/step",
             flush=True,
         )
     return 0

@@ -72,4 +72,4 @@ def test_command_lines_print_figures(capsys):
     assert "exp1" in text and "replace" in text and "2.04" in text
     assert bench_main(["--task", "exp3", "--ticks", "50", "--steps", "20"]) == 0
     text = capsys.readouterr().out
-    assert "control ticks/s" in text and "steps/s" in text
+    assert "ticks/s" in text and "behaviour steps" in text and "steps/s" in text
