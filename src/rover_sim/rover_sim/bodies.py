@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Any
 
 from rover_sim.config import UNIT_M, WorldConfig
 
@@ -49,7 +50,9 @@ def yaw_from_quat(q: tuple[float, float, float, float]) -> float:
     return math.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
 
 
-def _static_box(client, centre_u, half_u, height_m) -> int:
+def _static_box(
+    client: Any, centre_u: tuple[float, float], half_u: tuple[float, float], height_m: float
+) -> int:
     half = [half_u[0] * UNIT_M, half_u[1] * UNIT_M, height_m / 2.0]
     shape = client.createCollisionShape(client.GEOM_BOX, halfExtents=half)
     body = client.createMultiBody(
@@ -60,7 +63,7 @@ def _static_box(client, centre_u, half_u, height_m) -> int:
     return body
 
 
-def build_scene(client, config: WorldConfig) -> SceneIds:
+def build_scene(client: Any, config: WorldConfig) -> SceneIds:
     """Create ground, walls, obstacles and rover in an empty pybullet client."""
     client.setGravity(0.0, 0.0, -9.81)
     client.setTimeStep(config.tick_seconds / config.physics_substeps)
@@ -91,7 +94,7 @@ def build_scene(client, config: WorldConfig) -> SceneIds:
     return SceneIds(ground, walls, obstacles, rover)
 
 
-def _build_rover(client, config: WorldConfig) -> int:
+def _build_rover(client: Any, config: WorldConfig) -> int:
     r = WHEEL_RADIUS_M
     half_l = config.rover_length * UNIT_M / 2.0
     half_w = config.rover_width * UNIT_M / 2.0
@@ -130,5 +133,7 @@ def _build_rover(client, config: WorldConfig) -> int:
             spinningFriction=0.0,
             frictionAnchor=1,
         )
-        client.setJointMotorControl2(rover, link, client.VELOCITY_CONTROL, targetVelocity=0.0, force=0.0)
+        client.setJointMotorControl2(
+            rover, link, client.VELOCITY_CONTROL, targetVelocity=0.0, force=0.0
+        )
     return rover

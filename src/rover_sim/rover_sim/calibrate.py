@@ -97,12 +97,17 @@ def main(args: Sequence[str] | None = None) -> int:
     parser.add_argument("--first-seed", type=int, default=0)
     parser.add_argument("--steps", type=int, default=2000, help="behaviour steps per seed")
     parser.add_argument(
-        "--post-collision", choices=(*POST_COLLISION_RULES, "all"), default=None,
+        "--post-collision",
+        choices=(*POST_COLLISION_RULES, "all"),
+        default=None,
         help="post-collision rule (default: the preset's)",
     )
     parser.add_argument("--max-ticks", type=int, default=500, help="tick cap per behaviour")
     parser.add_argument(
-        "--set", action="append", default=[], metavar="FIELD=VALUE",
+        "--set",
+        action="append",
+        default=[],
+        metavar="FIELD=VALUE",
         help="override a WorldConfig field (number or word), e.g. --set forward_speed=30",
     )
     ns = parser.parse_args(args)

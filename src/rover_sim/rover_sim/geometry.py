@@ -90,7 +90,9 @@ def pose_is_free(pose: Pose, config: WorldConfig, margin: float = 0.0) -> bool:
     return True
 
 
-def footprint_distance(pose: Pose, point: tuple[float, float], length: float, width: float) -> float:
+def footprint_distance(
+    pose: Pose, point: tuple[float, float], length: float, width: float
+) -> float:
     """Distance from `point` to the rover footprint at `pose` (0 when inside), u."""
     x, y, th = pose
     dx, dy = point[0] - x, point[1] - y

@@ -43,7 +43,9 @@ def render_topdown(
     elif isinstance(world_or_config, WorldConfig):
         world, config = None, world_or_config
     else:
-        raise RoverSimError(f"render_topdown needs a RoverWorld or WorldConfig, got {world_or_config!r}")
+        raise RoverSimError(
+            f"render_topdown needs a RoverWorld or WorldConfig, got {world_or_config!r}"
+        )
     traj = np.empty((0, 2)) if trajectory is None else np.asarray(trajectory, dtype=float)
     if traj.size and (traj.ndim != 2 or traj.shape[1] not in (2, 3)):
         raise RoverSimError(f"trajectory must be N x 2 or N x 3, got shape {traj.shape!r}")
@@ -63,16 +65,40 @@ def render_topdown(
     if config.goal is None:
         lo = (size - config.goal_region) / 2
         ax.add_patch(
-            Rectangle((lo, lo), config.goal_region, config.goal_region, fill=False, ls=":",
-                      ec="tab:green", lw=1, label=f"goal region {config.goal_region:g}^2")
+            Rectangle(
+                (lo, lo),
+                config.goal_region,
+                config.goal_region,
+                fill=False,
+                ls=":",
+                ec="tab:green",
+                lw=1,
+                label=f"goal region {config.goal_region:g}^2",
+            )
         )
     for i, box in enumerate(config.obstacles):
         xmin, ymin, _, _ = box.bounds
-        ax.add_patch(Rectangle((xmin, ymin), box.sx, box.sy, fc="dimgray", ec="black",
-                               label="obstacle" if i == 0 else None))
+        ax.add_patch(
+            Rectangle(
+                (xmin, ymin),
+                box.sx,
+                box.sy,
+                fc="dimgray",
+                ec="black",
+                label="obstacle" if i == 0 else None,
+            )
+        )
     if goal is not None:
-        ax.add_patch(Circle(goal, config.goal_radius, fc="tab:green", alpha=0.8, zorder=3,
-                            label=f"goal (r={config.goal_radius:g})"))
+        ax.add_patch(
+            Circle(
+                goal,
+                config.goal_radius,
+                fc="tab:green",
+                alpha=0.8,
+                zorder=3,
+                label=f"goal (r={config.goal_radius:g})",
+            )
+        )
     if traj.size:
         ax.plot(traj[:, 0], traj[:, 1], "-", color="tab:blue", lw=1, label="trajectory")
     if pose is not None:
@@ -82,18 +108,39 @@ def render_topdown(
             for k in range(N_SECTORS):
                 a0, a1 = sector_bounds(k)
                 r = 30.0 if ranges is None else float(ranges[k])
-                ax.add_patch(Wedge((x, y), r, math.degrees(th + a0), math.degrees(th + a1),
-                                   fc=f"C{k}", alpha=0.25, ec=f"C{k}"))
+                ax.add_patch(
+                    Wedge(
+                        (x, y),
+                        r,
+                        math.degrees(th + a0),
+                        math.degrees(th + a1),
+                        fc=f"C{k}",
+                        alpha=0.25,
+                        ec=f"C{k}",
+                    )
+                )
                 mid = th + (a0 + a1) / 2
                 label = f"{k} {SECTOR_NAMES[k]}"
                 if ranges is not None:
                     label += f"\n{r:.1f} u"
-                ax.text(x + 0.6 * r * math.cos(mid), y + 0.6 * r * math.sin(mid), label,
-                        ha="center", va="center", fontsize=8)
+                ax.text(
+                    x + 0.6 * r * math.cos(mid),
+                    y + 0.6 * r * math.sin(mid),
+                    label,
+                    ha="center",
+                    va="center",
+                    fontsize=8,
+                )
         corners = rover_corners(pose, config.rover_length, config.rover_width)
-        ax.add_patch(Polygon(corners, closed=True, fc="tab:orange", ec="black", alpha=0.7, label="rover"))
-        ax.annotate("", xy=(x + 10 * math.cos(th), y + 10 * math.sin(th)), xytext=(x, y),
-                    arrowprops={"arrowstyle": "->", "lw": 1.5})
+        ax.add_patch(
+            Polygon(corners, closed=True, fc="tab:orange", ec="black", alpha=0.7, label="rover")
+        )
+        ax.annotate(
+            "",
+            xy=(x + 10 * math.cos(th), y + 10 * math.sin(th)),
+            xytext=(x, y),
+            arrowprops={"arrowstyle": "->", "lw": 1.5},
+        )
     ax.set_xlim(-5, size + 5)
     ax.set_ylim(-5, size + 5)
     ax.set_aspect("equal")
@@ -115,12 +162,26 @@ def write_doc_pictures(out_dir: str | Path, seed: int = 0) -> list[Path]:
     paths = []
     with RoverWorld(_Config.preset("exp1"), seed=seed) as world:
         world.reset(options={"goal": (75.0, 70.0), "pose": (40.0, 45.0, math.radians(20))})
-        paths.append(render_topdown(world, None, out / "sectors.png", show_sectors=True,
-                                    title="Six range sectors (readings in u), rover at (40, 45), 20 deg"))
+        paths.append(
+            render_topdown(
+                world,
+                None,
+                out / "sectors.png",
+                show_sectors=True,
+                title="Six range sectors (readings in u), rover at (40, 45), 20 deg",
+            )
+        )
     with RoverWorld(_Config.preset("exp3"), seed=seed) as world:
         world.reset(options={"pose": (30.0, 44.0, 0.0)})
-        paths.append(render_topdown(world, None, out / "exp3_layout.png", show_sectors=True,
-                                    title="Exp. 3: obstacle 8 x 24 at (55, 50), goal (80, 50)"))
+        paths.append(
+            render_topdown(
+                world,
+                None,
+                out / "exp3_layout.png",
+                show_sectors=True,
+                title="Exp. 3: obstacle 8 x 24 at (55, 50), goal (80, 50)",
+            )
+        )
     with RoverWorld(_Config.preset("exp1"), seed=seed) as world:
         world.reset()
         policy = np.random.default_rng([seed, 1])
@@ -132,8 +193,14 @@ def write_doc_pictures(out_dir: str | Path, seed: int = 0) -> list[Path]:
                 poses.insert(-1, (float("nan"),) * 3)  # no line to the re-placed pose
             if res.terminated:
                 break
-        paths.append(render_topdown(world, poses, out / "exp1_random.png",
-                                    title=f"Exp. 1: random behaviours until the goal ({len(poses)} ticks)"))
+        paths.append(
+            render_topdown(
+                world,
+                poses,
+                out / "exp1_random.png",
+                title=f"Exp. 1: random behaviours until the goal ({len(poses)} ticks)",
+            )
+        )
     return paths
 
 

@@ -22,6 +22,7 @@ edges included), in u, rounded to float32.
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 
@@ -69,7 +70,7 @@ class RangeSensor:
 
     def __init__(
         self,
-        client: object,
+        client: Any,
         rays_per_sector: int,
         max_range: float,
         height_m: float,

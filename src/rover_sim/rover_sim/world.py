@@ -392,9 +392,7 @@ class RoverWorld:
 
     def _place(self, pose: Pose) -> None:
         x, y, th = pose
-        self._set_base(
-            [x * UNIT_M, y * UNIT_M, bodies.WHEEL_RADIUS_M], bodies.quat_from_yaw(th)
-        )
+        self._set_base([x * UNIT_M, y * UNIT_M, bodies.WHEEL_RADIUS_M], bodies.quat_from_yaw(th))
 
     def _after_collision(self, before_pose: Pose, before_base: Any, v: float) -> None:
         rule = self._config.post_collision

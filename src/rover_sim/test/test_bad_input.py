@@ -19,8 +19,12 @@ def test_root_exception_is_value_error():
 
 @pytest.mark.parametrize(
     ("v", "w", "match"),
-    [(float("nan"), 0.0, "nan"), (0.0, float("inf"), "inf"), ("fast", 0.0, "'fast'"),
-     (True, 0.0, "True")],
+    [
+        (float("nan"), 0.0, "nan"),
+        (0.0, float("inf"), "inf"),
+        ("fast", 0.0, "'fast'"),
+        (True, 0.0, "True"),
+    ],
 )
 def test_non_finite_commands(world, v, w, match):
     with pytest.raises(RoverSimError, match=match):

@@ -113,9 +113,9 @@ def test_over_rotation_after_90_degrees(make_world):
 def test_direction_change_resets_rotation_accumulator(make_world):
     world = make_world()
     world.reset(options={"goal": (80.0, 80.0), "pose": (50.0, 50.0, 0.0)})
-    for action in [Action.COUNTER_CLOCKWISE] * 15 + [Action.CLOCKWISE] * 15 + [
-        Action.COUNTER_CLOCKWISE
-    ] * 15:
+    for action in (
+        [Action.COUNTER_CLOCKWISE] * 15 + [Action.CLOCKWISE] * 15 + [Action.COUNTER_CLOCKWISE] * 15
+    ):
         _, reward, _, _, _ = world.step(action)
         assert reward == 0.0
     # the same direction goes on accumulating: 75 degrees so far, the penalty comes soon
@@ -191,6 +191,4 @@ def test_tick_and_sim_time_and_info(make_world):
     assert world.sim_time == pytest.approx(0.2)
     assert info["sim_time"] == pytest.approx(0.2)
     # a 0.05 s tick rotates half as far per tick
-    assert world.action_velocity(Action.CLOCKWISE)[1] * 0.05 == pytest.approx(
-        -math.radians(2.5)
-    )
+    assert world.action_velocity(Action.CLOCKWISE)[1] * 0.05 == pytest.approx(-math.radians(2.5))
