@@ -70,3 +70,24 @@ def test_exp3_run_with_the_range_sensor_verifies(tmp_path):
     assert res.returncode == 0, res.stdout + res.stderr
     res = replay(tmp_path / "run" / "bag", "--verify", "--out", tmp_path / "replay")
     assert res.returncode == 0 and "verify: OK: 40 behaviour steps" in res.stdout, res.stdout
+
+
+def test_a_run_continues_from_a_saved_learner_and_verifies(plain_run, tmp_path):
+    """Exp. 2 style: the learner saved by a run goes on under a sensor fault."""
+    import json
+
+    from conftest import bringup, run_config
+    from stns_ros.summary import load_run
+
+    cfg = run_config(tmp_path, run={"name": "cont", "seed": 8, "steps": 30},
+                     learner={"preset": "exp1", "state_in": str(plain_run / "learner_state")},
+                     faults={"name": "rot", "faults": [
+                         {"at_step": 0, "set": {"goal_sensor_rotation_deg": 25.0}}]})
+    res = bringup(cfg, tmp_path / "run")
+    assert res.returncode == 0, res.stdout + res.stderr
+    run = load_run(tmp_path / "run" / "bag")
+    assert [r["run_step"] for r in run.steps] == list(range(30))
+    assert run.steps[0]["index"] >= 150  # the saved learner's steps go on
+    assert json.loads((tmp_path / "run" / "summary.json").read_text())["steps"] == 30
+    res = replay(tmp_path / "run" / "bag", "--verify", "--out", tmp_path / "replay")
+    assert res.returncode == 0 and "verify: OK: 30 behaviour steps" in res.stdout, res.stdout

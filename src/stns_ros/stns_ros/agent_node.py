@@ -123,6 +123,7 @@ class StnsAgentNode(Node):
         self.driver = AgentDriver(make_agent(learner, self.obs_dim, p["state_in"]),
                                   action_velocities(p["world_preset"], overrides))
         self.max_steps = int(p["max_behaviour_steps"])
+        self.start_steps = self.driver.behaviour_steps  # > 0 for a saved learner
         self.done = False
 
         self.pub_cmd = self.create_publisher(TwistStamped, T.CMD_VEL, FRAME_QOS)
@@ -224,9 +225,9 @@ class StnsAgentNode(Node):
         if records:
             self._explain(records, t)
             every = self.params["progress_every"]
-            if self.driver.behaviour_steps // every != (self.driver.behaviour_steps - len(records)) // every:
+            if self.run_steps // every != (self.run_steps - len(records)) // every:
                 self.get_logger().info(
-                    f"progress {self.driver.behaviour_steps}/{self.max_steps or '-'} "
+                    f"progress {self.run_steps}/{self.max_steps or '-'} "
                     f"behaviour steps, {self.frames} frames")
         c = self._cmd
         set_stamp(c.header.stamp, t)
@@ -234,10 +235,15 @@ class StnsAgentNode(Node):
         c.twist.angular.z = w
         self._last_answer = serialize_message(c)
         self.pub_cmd.publish(self._last_answer)  # the last one too, as the headless loop
-        if self.max_steps and self.driver.behaviour_steps >= self.max_steps:
+        if self.max_steps and self.run_steps >= self.max_steps:
             self.done = True
             self._t_done = time.monotonic()
             self.get_logger().info(f"{self.driver.behaviour_steps} behaviour steps: done")
+
+    @property
+    def run_steps(self) -> int:
+        """Behaviour steps made in this run (a saved learner starts with some)."""
+        return self.driver.behaviour_steps - self.start_steps
 
     def _watchdog(self) -> None:
         if self._stopped or self._last_t < 0:
@@ -257,6 +263,7 @@ class StnsAgentNode(Node):
         for rec in records:
             d = record_to_dict(rec)
             d["stamp_ns"] = t
+            d["run_step"] = rec.index - self.start_steps  # 0-based within this run
             self.pub_steps.publish(String(data=dumps(d)))
         n = len(records)
         self._since_explain += n
@@ -294,11 +301,11 @@ class StnsAgentNode(Node):
                     "wall_seconds": round(wall, 3),
                     "agent_frames": self.frames,
                     "agent_ticks": self.ticks,
-                    "agent_behaviour_steps": self.driver.behaviour_steps,
+                    "agent_behaviour_steps": self.run_steps,
                     "frames_per_second": round(self.frames / wall, 1) if wall > 0 else None,
                     "ticks_per_second": round(self.ticks / wall, 1) if wall > 0 else None,
                     "behaviour_steps_per_second":
-                        round(self.driver.behaviour_steps / wall, 1) if wall > 0 else None,
+                        round(self.run_steps / wall, 1) if wall > 0 else None,
                 }, f)
         out = self.params["state_out"]
         if out:

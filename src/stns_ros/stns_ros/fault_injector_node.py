@@ -1,6 +1,6 @@
 """fault_injector_node: runs a fault scenario by setting the simulator's parameters.
 
-Triggers are behaviour steps (counted from /stns/steps) or sim time (/clock, use_sim_time).
+Triggers are behaviour steps of this run (``run_step`` of /stns/steps) or sim time (/clock, use_sim_time).
 Each change goes through the simulator node's SetParameters service, so the simulator's own
 validation applies; every change applied (or refused) is published on
 /fault_injector/events as JSON. An invalid scenario is refused before anything starts.
@@ -69,7 +69,7 @@ class FaultInjectorNode(Node):
 
     def _on_step(self, msg: String) -> None:
         try:
-            index = int(json.loads(msg.data)["index"])
+            index = int(json.loads(msg.data)["run_step"])
         except (ValueError, KeyError, TypeError):
             return
         self.steps = max(self.steps, index + 1)

@@ -37,7 +37,8 @@ def run_headless(cfg: dict[str, Any]) -> dict[str, Any]:
     clock = ScenarioClock(parse_scenario(cfg["faults"]))
     values = dict(FAULT_NEUTRAL, **world_cfg["faults"])
     ramps: list[tuple[float, dict[str, float]]] = []
-    steps = cfg["run"]["steps"]
+    steps = agent.behaviour_steps + cfg["run"]["steps"]  # a saved learner starts with some
+    start = agent.behaviour_steps
     records = []
     ticks = 0
     t0 = time.perf_counter()
@@ -48,7 +49,7 @@ def run_headless(cfg: dict[str, Any]) -> dict[str, Any]:
         records.extend(agent.pop_records())
         if clock.scenario.faults or ramps:
             now = world.sim_time
-            for e in clock.due(agent.behaviour_steps, now):
+            for e in clock.due(agent.behaviour_steps - start, now):
                 if e.kind == "ramp":
                     ramps.extend(ramp_points(values, e, now))
                 else:
@@ -72,9 +73,9 @@ def run_headless(cfg: dict[str, Any]) -> dict[str, Any]:
     return {
         "records": records,
         "ticks": ticks,
-        "behaviour_steps": agent.behaviour_steps,
+        "behaviour_steps": agent.behaviour_steps - start,
         "wall_seconds": round(wall, 3),
         "ticks_per_second": round(ticks / wall, 1),
-        "behaviour_steps_per_second": round(agent.behaviour_steps / wall, 1),
+        "behaviour_steps_per_second": round((agent.behaviour_steps - start) / wall, 1),
         "obs_sample": np.asarray(obs).tolist(),
     }

@@ -29,7 +29,7 @@ class VerifyError(StnsRosError):
 
 
 def _comparable(rec: dict[str, Any]) -> dict[str, Any]:
-    return {k: v for k, v in rec.items() if k != "stamp_ns"}
+    return {k: v for k, v in rec.items() if k not in ("stamp_ns", "run_step")}
 
 
 def verify(run: RunData) -> str:

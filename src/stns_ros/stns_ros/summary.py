@@ -83,6 +83,8 @@ def load_run(bag: str | os.PathLike[str]) -> RunData:
             run.situations_final = sum(
                 1 for mk in msg.markers if mk.action == Marker.ADD and mk.type == Marker.CYLINDER)
     run.steps.sort(key=lambda d: d["index"])
+    for i, d in enumerate(run.steps):
+        d.setdefault("run_step", i)
     return run
 
 
@@ -102,7 +104,7 @@ def summarize(run: RunData, bag: str | os.PathLike[str] | None = None) -> dict[s
     arrivals: list[tuple[int, int]] = []  # (record index, trial)
     for r in steps:
         if r.get("arrival"):
-            arrivals.append((r["index"], r["trial"]))
+            arrivals.append((r["run_step"], r["trial"]))
         else:
             per_trial[r["trial"]] = per_trial.get(r["trial"], 0) + 1
     blocks: list[float | None] = []
@@ -162,7 +164,7 @@ def write_plots(run: RunData, summary: dict[str, Any], out_dir: str | os.PathLik
     for f in run.faults:
         if f.get("applied") and f.get("kind") != "ramp":
             ax.axvline(f["step"], color="tab:red", ls="--", lw=1)
-            ax.text(f["step"], max(ys or [1]), " " + ", ".join(
+            ax.text(f["step"], max(ys or [1.0]), " " + ", ".join(
                 f"{k}={v:g}" for k, v in f["values"].items()), color="tab:red", fontsize=7,
                 va="top", rotation=90)
     ax.set_xlabel("behaviour step")
