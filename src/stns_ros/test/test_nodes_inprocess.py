@@ -66,6 +66,13 @@ def test_recorder_records_raw_messages(rclpy_context, tmp_path):
     rec = TopicRecorder(node, str(tmp_path / "bag"), log_time=lambda: 42)
     rec.subscribe(["/fault_injector/events"])
     pub = node.create_publisher(String, "/fault_injector/events", RECORD_QOS)
+    ex0 = rclpy.executors.SingleThreadedExecutor()
+    ex0.add_node(node)
+    for _ in range(200):  # discovery, up to 10 s on a loaded machine
+        if pub.get_subscription_count() > 0:
+            break
+        ex0.spin_once(timeout_sec=0.05)
+    ex0.remove_node(node)
     for i in range(3):
         pub.publish(String(data=json.dumps({"i": i})))
     ex = rclpy.executors.SingleThreadedExecutor()
@@ -94,7 +101,9 @@ def test_agent_answers_a_frame_and_its_watchdog_stops_the_rover(rclpy_context):
     ex.add_node(agent)
     ex.add_node(probe)
     try:
-        for _ in range(40):  # discovery
+        for _ in range(200):  # discovery, up to 10 s on a loaded machine
+            if agent.pub_cmd.get_subscription_count() > 0:
+                break
             ex.spin_once(timeout_sec=0.05)
         goal = PointStamped()
         goal.header.stamp.sec = 3
