@@ -239,9 +239,10 @@ class RoverSimNode(Node):
         out.append((self.pub_reward, T.REWARD, serialize_message(r)))
         self._terminated = bool(terminated)
         self._frame_data = [(pub, data) for pub, _, data in out]
-        for pub, topic, data in out:
+        for pub, _, data in out:
             pub.publish(data)
-            if self.recorder:
+        if self.recorder:  # after publishing: the agent works meanwhile
+            for _, topic, data in out:
                 self.recorder.write(topic, data, t)
 
     def _resend(self) -> None:
@@ -272,9 +273,9 @@ class RoverSimNode(Node):
         if self.lockstep:
             if t != current:
                 return  # a duplicate answer to a frame already advanced
+            self.cmd = (m_to_u(msg.twist.linear.x), float(msg.twist.angular.z))
             if self.recorder:
                 self.recorder.write(T.CMD_VEL, data, t)
-            self.cmd = (m_to_u(msg.twist.linear.x), float(msg.twist.angular.z))
             self._advance()
             self._resend_timer.reset()
         else:
