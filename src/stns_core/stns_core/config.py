@@ -8,8 +8,11 @@ with the paper section each departs from or resolves.
 from __future__ import annotations
 
 import dataclasses
+import numbers
 from dataclasses import dataclass
 from typing import Any
+
+import numpy as np
 
 from .errors import StnsConfigError
 
@@ -69,13 +72,15 @@ class StnsConfig:
         }
         for name, lowest in ints.items():
             value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, int):
+            if isinstance(value, bool | np.bool_) or not isinstance(value, numbers.Integral):
                 raise StnsConfigError(f"{name} must be an int, got {value!r}")
+            value = int(value)
+            object.__setattr__(self, name, value)
             if value < lowest:
                 raise StnsConfigError(f"{name} must be >= {lowest}, got {value!r}")
         for name in ("r_min_r", "gamma", "p_min", "cov_reg"):
             value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, int | float):
+            if isinstance(value, bool | np.bool_) or not isinstance(value, numbers.Real):
                 raise StnsConfigError(f"{name} must be a number, got {value!r}")
             if value != value or value in (float("inf"), float("-inf")):
                 raise StnsConfigError(f"{name} must be finite, got {value!r}")
@@ -89,8 +94,9 @@ class StnsConfig:
         if self.n_min_r > self.history_size or self.n_init_t > self.history_size:
             raise StnsConfigError(
                 f"history_size {self.history_size} is smaller than the instance counts")
-        if not isinstance(self.iprl_memo, bool):
+        if not isinstance(self.iprl_memo, bool | np.bool_):
             raise StnsConfigError(f"iprl_memo must be a bool, got {self.iprl_memo!r}")
+        object.__setattr__(self, "iprl_memo", bool(self.iprl_memo))
         choices = {
             "planner": PLANNERS, "random_stop": RANDOM_STOPS, "majority": MAJORITIES,
             "boundary_refit": BOUNDARY_REFITS, "relabel": RELABELS,

@@ -76,3 +76,14 @@ def test_yaml_presets_match(name):
         pytest.skip(f"{path} not in this checkout")
     params = yaml.safe_load(path.read_text())["/**"]["ros__parameters"]
     assert StnsConfig.from_dict(params) == StnsConfig.preset(name)
+
+
+def test_numpy_scalars_are_accepted_and_normalised():
+    import json
+
+    import numpy as np
+
+    cfg = StnsConfig(seed=np.int64(3), gamma=np.float64(0.5), n_max=np.int32(4),
+                     iprl_memo=np.bool_(False))
+    assert type(cfg.seed) is int and type(cfg.gamma) is float and cfg.iprl_memo is False
+    json.dumps(cfg.to_dict())
