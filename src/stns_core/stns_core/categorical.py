@@ -159,14 +159,13 @@ class Learner:
         """Store a record and run the learning of one behaviour step."""
         cfg = self.cfg
         h = self.hist
-        slot, forgot = h.append(x, s, b, reward, x_next, s_next, terminal)
+        slot, _ = h.append(x, s, b, reward, x_next, s_next, terminal)
         for sit in self.order:  # forgetting: the slot leaves every population
             if sit.pos[slot] or sit.neg[slot]:
                 if sit.pos[slot]:
                     sit.shape_dirty = True
                 sit.pos[slot] = sit.neg[slot] = False
                 sit.nn_dirty = True
-        del forgot
         if b >= 0:  # operation 1
             for sit in self.order:
                 if sit.result_met(b, reward, s_next, terminal, cfg.r_min_r):
