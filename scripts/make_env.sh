@@ -27,5 +27,7 @@ export PATH
 export ROS_DOMAIN_ID="${ROS_DOMAIN_ID:-$(( ($$ % 90) + 10 ))}"
 export STNS_WS="$_stns_root"
 export MPLBACKEND="${MPLBACKEND:-Agg}"
+# OpenBLAS threads make the learner's small matrix products several times slower here.
+export OPENBLAS_NUM_THREADS="${OPENBLAS_NUM_THREADS:-1}"
 unset _stns_root
 EOS
