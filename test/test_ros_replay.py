@@ -91,3 +91,42 @@ def test_a_run_continues_from_a_saved_learner_and_verifies(plain_run, tmp_path):
     assert json.loads((tmp_path / "run" / "summary.json").read_text())["steps"] == 30
     res = replay(tmp_path / "run" / "bag", "--verify", "--out", tmp_path / "replay")
     assert res.returncode == 0 and "verify: OK: 30 behaviour steps" in res.stdout, res.stdout
+
+
+def test_standalone_recorder_records_and_closes_on_sigint(tmp_path):
+    import json
+    import signal
+    import time
+
+    import rclpy
+    from rclpy.qos import QoSProfile, ReliabilityPolicy
+    from std_msgs.msg import String
+
+    env = dict(os.environ, ROS_DOMAIN_ID=str(DOMAIN))
+    proc = subprocess.Popen(command("stns_recorder", "stns_ros.recorder_node") + [
+        "--ros-args", "-p", f"output:={tmp_path / 'bag'}", "-p",
+        "topics:=[/fault_injector/events]"], env=env, stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT, text=True)
+    context = rclpy.Context()
+    rclpy.init(context=context, domain_id=DOMAIN)
+    try:
+        node = rclpy.create_node("probe_pub", context=context)
+        pub = node.create_publisher(String, T.FAULT_EVENTS,
+                                    QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE))
+        deadline = time.monotonic() + 30
+        while pub.get_subscription_count() == 0 and time.monotonic() < deadline:
+            time.sleep(0.05)
+        for i in range(5):
+            pub.publish(String(data=json.dumps({"i": i})))
+        assert pub.wait_for_all_acked(rclpy.duration.Duration(seconds=5))
+        node.destroy_node()
+    finally:
+        rclpy.try_shutdown(context=context)
+    proc.send_signal(signal.SIGINT)
+    out, _ = proc.communicate(timeout=30)
+    assert proc.returncode == 0, out
+    from stns_ros.bag import decode
+
+    got = [json.loads(decode(m).data)["i"] for m in read_messages(tmp_path / "bag")]
+    assert got == [0, 1, 2, 3, 4]
+    assert read_metadata(tmp_path / "bag")["message_count"] == 5
