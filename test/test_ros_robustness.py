@@ -47,11 +47,12 @@ def _children(marker: str, module: str) -> list[int]:
     return pids
 
 
-def test_sigint_in_the_middle_leaves_a_closed_readable_bag(tmp_path):
+@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM])
+def test_a_stop_in_the_middle_leaves_a_closed_readable_bag(tmp_path, sig):
     out = tmp_path / "run"
     proc = _start(run_config(tmp_path, run={"name": "t", "seed": 5, "steps": 10**6}), out)
     _wait_for_bag(out, proc)
-    proc.send_signal(signal.SIGINT)
+    proc.send_signal(sig)
     stdout, stderr = proc.communicate(timeout=60)
     assert proc.returncode == 130, stdout + stderr
     assert (out / "bag" / "metadata.yaml").exists()
