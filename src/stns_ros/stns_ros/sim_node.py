@@ -46,7 +46,6 @@ class RoverSimNode(Node):
         super().__init__("rover_sim", **kwargs)
         from rover_sim import RoverSimError, RoverWorld, WorldConfig
 
-        self._sim_error = RoverSimError
         p = {}
         p["world_preset"] = declare(self, "world_preset", "exp1", "rover_sim task preset.",
                                     read_only=True, choices=("exp1", "exp3"))
@@ -84,8 +83,7 @@ class RoverSimNode(Node):
             self, "run_config", "{}",
             "JSON of the whole run config; published latched on /stns/run_config and recorded.",
             read_only=True)
-        for name, (_, _, _, text) in FAULT_PARAMS.items():
-            lo, hi = FAULT_PARAMS[name][:2]
+        for name, (lo, hi, _, text) in FAULT_PARAMS.items():
             default = 1.0 if name == "left_wheel_gain" else 0.0
             p[name] = declare(self, name, default, text, range=(lo, hi))
         for name, choices in (("world_preset", ("exp1", "exp3")), ("mode", MODES),
