@@ -122,6 +122,11 @@ def republish(bag: Path, rate: float) -> int:
                     message_class(m.msgtype), m.topic, LATCHED_QOS if m.topic == T.RUN_CONFIG else qos)
         time.sleep(0.5)  # discovery
         t0_bag = messages[0].log_time if messages else 0
+        span = (messages[-1].log_time - t0_bag) / 1e9 if messages else 0.0
+        sys.stderr.write(
+            f"stns_replay: republishing {len(messages)} messages of {span:.0f} s sim time "
+            + (f"over {span / rate:.0f} s (--rate {rate:g})" if rate > 0 else "as fast as possible")
+            + "; Ctrl-C stops\n")
         t0 = time.monotonic()
         for m in messages:
             if rate > 0:
