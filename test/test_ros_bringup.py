@@ -3,6 +3,8 @@ and makes the same behaviours as the headless loop with the same seeds."""
 
 import json
 
+import pytest
+
 from stns_ros import topics as T
 
 EXPECTED = {T.CLOCK, T.GOAL, T.RANGES, T.REWARD, T.ODOM, T.CMD_VEL, T.STEPS, T.PLAN,
@@ -81,3 +83,23 @@ def test_lockstep_ros_run_makes_the_headless_decisions(plain_run):
     assert ros == headless
     summary = json.loads((plain_run / "summary.json").read_text())
     assert summary["ticks"] == ticks
+
+
+def test_same_records_as_the_headless_experiment_runner(plain_run):
+    """stns_experiments' own tick loop, trial set 0 of seed 3, against the ROS run."""
+    runner = pytest.importorskip("stns_experiments.runner")
+    from stns_ros.driver import record_to_dict
+    from stns_ros.summary import load_run
+
+    from rover_sim import RoverWorld, WorldConfig
+    from stns_core import StnsAgent, StnsConfig
+
+    seeds = runner.set_seeds(3, 1)[0]
+    world = RoverWorld(WorldConfig.preset("exp1"), seed=seeds["world_seed"])
+    agent = StnsAgent(StnsConfig.preset("exp1", seed=seeds["agent_seed"]), obs_dim=2,
+                      n_behaviours=4)
+    records, _ = runner.run_loop(world, agent, 150)
+    world.close()
+    run = load_run(plain_run / "bag")
+    ros = [{k: v for k, v in r.items() if k not in ("stamp_ns", "run_step")} for r in run.steps]
+    assert ros == [json.loads(json.dumps(record_to_dict(r))) for r in records]
