@@ -25,6 +25,27 @@ from .records import StepRecord
 
 PlanElems = list[tuple[int, int]]
 
+# Behaviour indices of docs/INTERFACES.md, used only by exploration="greedy_goal".
+FORWARD, BACKWARD, CLOCKWISE, COUNTER_CLOCKWISE = 0, 1, 2, 3
+
+
+def goal_bearing_deg(x: np.ndarray) -> float:
+    """Bearing of the goal in the rover frame (input dims 0, 1 = goal x forward, y left)."""
+    return math.degrees(math.atan2(float(x[1]), float(x[0])))
+
+
+def greedy_behaviour(x: np.ndarray, align_deg: float) -> int:
+    """Head for the goal: drive if it is (nearly) ahead or behind, else turn the short way
+    to bring it ahead (|bearing| <= 90) or behind (|bearing| > 90)."""
+    a = goal_bearing_deg(x)
+    if abs(a) <= align_deg:
+        return FORWARD
+    if abs(a) >= 180.0 - align_deg:
+        return BACKWARD
+    if abs(a) <= 90.0:
+        return COUNTER_CLOCKWISE if a > 0 else CLOCKWISE  # turning ccw lowers the bearing
+    return CLOCKWISE if a > 0 else COUNTER_CLOCKWISE
+
 
 @dataclass
 class _Running:
@@ -39,14 +60,18 @@ class _Running:
     ticks: int = 0
     la_count: int = -1  # look-ahead ticks spent inside the target (-1: not yet reached)
     prev_x: np.ndarray | None = None  # input of the previous tick (look-ahead extrapolation)
+    greedy: bool = False  # an exploration step chosen by exploration="greedy_goal"
 
     def to_dict(self) -> dict[str, Any]:
-        return {
+        d = {
             "x0": [float(v) for v in self.x0], "s0": self.s0, "b": self.b,
             "target": self.target, "planned": self.planned, "reward": self.reward,
             "ticks": self.ticks, "la_count": self.la_count,
             "prev_x": None if self.prev_x is None else [float(v) for v in self.prev_x],
         }
+        if self.greedy:  # only then: save files of the default config stay as they were
+            d["greedy"] = True
+        return d
 
     @classmethod
     def from_dict(cls, d: dict[str, Any]) -> _Running:
@@ -68,6 +93,11 @@ class StnsAgent:
                 raise StnsInputError(f"{name} must be an int, got {value!r}")
             if value < lowest:
                 raise StnsInputError(f"{name} must be >= {lowest}, got {value!r}")
+        if config.exploration == "greedy_goal" and (n_behaviours != 4 or obs_dim < 2):
+            raise StnsInputError(
+                "exploration='greedy_goal' needs the goal sensor in input dims 0, 1 and the "
+                f"four behaviours of docs/INTERFACES.md; got obs_dim {obs_dim}, "
+                f"n_behaviours {n_behaviours}")
         self.config = config
         self.obs_dim = int(obs_dim)
         self.n_behaviours = int(n_behaviours)
@@ -150,6 +180,8 @@ class StnsAgent:
                 f"observation shape {x.shape} does not match obs_dim {self.obs_dim}: {obs!r}")
         if not np.all(np.isfinite(x)):
             raise StnsInputError(f"observation has non-finite values: {x.tolist()!r}")
+        if self.config.range_clip > 0.0 and self.obs_dim > 2:  # option: preprocessing
+            np.minimum(x[2:], self.config.range_clip, out=x[2:])
         return x
 
     @staticmethod
@@ -185,10 +217,29 @@ class StnsAgent:
         elif (not run.planned and cfg.random_stop == "situation_change"
               and s_now != run.s0):
             return x, s_now
+        if run.greedy and self._greedy_done(run.b, x):
+            return x, s_now
         if cfg.max_behaviour_ticks and run.ticks >= cfg.max_behaviour_ticks:
             return x, s_now
         run.prev_x = x
         return None
+
+    def _greedy_done(self, b: int, x: np.ndarray) -> bool:
+        """Stop of a greedy step: a turn once the goal is ahead or behind (within
+        ``greedy_align_deg``), a drive once it is more than 3 x that off the driving line."""
+        a = abs(goal_bearing_deg(x))
+        tol = self.config.greedy_align_deg
+        if b in (CLOCKWISE, COUNTER_CLOCKWISE):
+            return a <= tol or a >= 180.0 - tol
+        off = a if b == FORWARD else 180.0 - a
+        return off > min(3.0 * tol, 89.0)
+
+    def _explore(self, x: np.ndarray) -> tuple[int, bool]:
+        """The behaviour when no plan has positive utility: (behaviour, greedy)."""
+        cfg = self.config
+        if cfg.exploration == "greedy_goal" and self.rng.random() < cfg.greedy_prob:
+            return greedy_behaviour(x, cfg.greedy_align_deg), True
+        return int(self.rng.integers(self.n_behaviours)), False
 
     def _stays(self, run: _Running, x: np.ndarray) -> bool:
         """One tick of look-ahead: is the input extrapolated one tick on still in the target?"""
@@ -239,6 +290,7 @@ class StnsAgent:
     def _begin(self, x: np.ndarray, continuing: bool) -> int:
         s = self.learner.classify(x)
         self._current = s
+        greedy = False
         if (continuing and self._plan and self._prev_reached is not None
                 and s == self._prev_reached and self._plan_alive()):
             b, d = self._plan.pop(0)
@@ -250,8 +302,9 @@ class StnsAgent:
                 (b, d), self._plan = plan[0], plan[1:]
                 planned = True
             else:
-                b, d, planned = int(self.rng.integers(self.n_behaviours)), None, False
+                (b, greedy), d, planned = self._explore(x), None, False
                 self._plan = []
-        self._run = _Running(x0=x.copy(), s0=s, b=int(b), target=d, planned=planned)
+        self._run = _Running(x0=x.copy(), s0=s, b=int(b), target=d, planned=planned,
+                             greedy=greedy)
         return int(b)
 

@@ -189,7 +189,7 @@ class Learner:
         changed = False
         for sit in self.order:
             if sit.shape_dirty or not only_dirty:
-                sit.fit(self.hist.x, self.cfg.cov_reg)
+                sit.fit(self.hist.x, self.cfg.cov_reg, self.cfg.shape_trim)
                 changed = True
         if changed:
             self.classifier.invalidate()
@@ -242,7 +242,7 @@ class Learner:
                         reward_key=key, created=h.total)
         self.next_id += 1
         sit.pos = sit.positive_mask(h, self.cfg.r_min_r)
-        sit.fit(h.x, self.cfg.cov_reg)
+        sit.fit(h.x, self.cfg.cov_reg, self.cfg.shape_trim)
         self.order.append(sit)  # bottom of the tree until the next re-ordering
         self.by_id[sit.id] = sit
         self._event("extracted", sit, records=count, positives=sit.n_pos)
@@ -351,7 +351,7 @@ class Learner:
         sit.behaviour, sit.parent = b_new, parent.id
         sit.pos = mask
         sit.neg = np.zeros_like(mask)
-        sit.fit(h.x, cfg.cov_reg)
+        sit.fit(h.x, cfg.cov_reg, cfg.shape_trim)
         self._event("redefined", sit, reason=reason, old_behaviour=old[0], old_parent=old[1])
         self._structure_changed()
 
@@ -368,7 +368,9 @@ class Learner:
             return
         self._version += 1
         utilities = self.compute_utilities()
-        negative = [s for s in self.order if utilities[s.id] < 0.0]
+        grace = self.cfg.elimination_grace_steps  # 0: the paper's operation 5
+        negative = [s for s in self.order if utilities[s.id] < 0.0
+                    and (grace == 0 or self.hist.total - s.created >= grace)]
         for sit in negative:  # operation 5
             if sit.id in self.by_id:
                 self._eliminate(sit, f"negative utility {utilities[sit.id]:.4g}")

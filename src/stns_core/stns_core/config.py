@@ -21,6 +21,7 @@ RANDOM_STOPS = ("situation_change", "reward")
 MAJORITIES = ("strict", "plurality")
 BOUNDARY_REFITS = ("every_step", "interval")
 RELABELS = ("after_modification", "never")
+EXPLORATIONS = ("uniform", "greedy_goal")
 
 _PRESETS: dict[str, dict[str, Any]] = {
     # Paper section 7.1 (Exp. 1 and, from a saved learner, Exp. 2).
@@ -63,12 +64,21 @@ class StnsConfig:
     cov_reg: float = 1e-3
     max_behaviour_ticks: int = 0
     event_log_size: int = 500
+    # Exp. 3 remedies of paper section 7.3 (algorithm.md, "Section 7.3 options"). The
+    # defaults switch every one of them off: the learner is then bit-for-bit the one above.
+    exploration: str = "uniform"
+    greedy_prob: float = 0.5
+    greedy_align_deg: float = 15.0
+    elimination_grace_steps: int = 0
+    shape_trim: float = 1.0
+    range_clip: float = 0.0
 
     def __post_init__(self) -> None:
         ints = {
             "n_init_r": 1, "n_min_r": 1, "n_init_t": 1, "n_min_t": 1, "n_max": 1,
             "history_size": 2, "adjust_interval": 1, "seed": 0,
             "target_lookahead_ticks": 0, "max_behaviour_ticks": 0, "event_log_size": 1,
+            "elimination_grace_steps": 0,
         }
         for name, lowest in ints.items():
             value = getattr(self, name)
@@ -78,7 +88,8 @@ class StnsConfig:
             object.__setattr__(self, name, value)
             if value < lowest:
                 raise StnsConfigError(f"{name} must be >= {lowest}, got {value!r}")
-        for name in ("r_min_r", "gamma", "p_min", "cov_reg"):
+        for name in ("r_min_r", "gamma", "p_min", "cov_reg", "greedy_prob", "greedy_align_deg",
+                     "shape_trim", "range_clip"):
             value = getattr(self, name)
             if isinstance(value, bool | np.bool_) or not isinstance(value, numbers.Real):
                 raise StnsConfigError(f"{name} must be a number, got {value!r}")
@@ -91,6 +102,15 @@ class StnsConfig:
             raise StnsConfigError(f"p_min must be in [0, 1), got {self.p_min!r}")
         if self.cov_reg <= 0.0:
             raise StnsConfigError(f"cov_reg must be > 0, got {self.cov_reg!r}")
+        if not 0.0 <= self.greedy_prob <= 1.0:
+            raise StnsConfigError(f"greedy_prob must be in [0, 1], got {self.greedy_prob!r}")
+        if not 0.0 < self.greedy_align_deg < 90.0:
+            raise StnsConfigError(
+                f"greedy_align_deg must be in (0, 90), got {self.greedy_align_deg!r}")
+        if not 0.0 < self.shape_trim <= 1.0:
+            raise StnsConfigError(f"shape_trim must be in (0, 1], got {self.shape_trim!r}")
+        if self.range_clip < 0.0:
+            raise StnsConfigError(f"range_clip must be >= 0 (0 = off), got {self.range_clip!r}")
         if self.n_min_r > self.history_size or self.n_init_t > self.history_size:
             raise StnsConfigError(
                 f"history_size {self.history_size} is smaller than the instance counts")
@@ -100,6 +120,7 @@ class StnsConfig:
         choices = {
             "planner": PLANNERS, "random_stop": RANDOM_STOPS, "majority": MAJORITIES,
             "boundary_refit": BOUNDARY_REFITS, "relabel": RELABELS,
+            "exploration": EXPLORATIONS,
         }
         for name, allowed in choices.items():
             value = getattr(self, name)

@@ -94,8 +94,13 @@ class Situation:
         return int(np.count_nonzero(self.neg & ~self.pos))
 
     # -- shape (operation 2) ----------------------------------------------------------
-    def fit(self, x: np.ndarray, cov_reg: float) -> None:
-        """Mean, regularised covariance and boundary on the farthest positive instance."""
+    def fit(self, x: np.ndarray, cov_reg: float, trim: float = 1.0) -> None:
+        """Mean, regularised covariance and boundary on the farthest positive instance.
+
+        ``trim < 1`` (option ``shape_trim``, not the paper's): after the full fit, keep the
+        ``ceil(trim * n)`` positives nearest to the mean (Mahalanobis; at least d + 1), refit
+        mean and covariance on them and put the boundary on the farthest kept one.
+        """
         pts = x[self.pos]
         self.shape_dirty = False
         self.nn_dirty = True
@@ -106,7 +111,18 @@ class Situation:
         self.cov = regularised_cov(pts, cov_reg, self.mean)
         self._derive_factors()
         z = np.einsum("ij,kj->ik", pts - self.mean, self.whiten)  # (BLAS threads: slow here)
-        self.boundary = float(np.sqrt(np.max(np.einsum("ij,ij->i", z, z))))
+        d2 = np.einsum("ij,ij->i", z, z)
+        if trim < 1.0:
+            n, d = pts.shape
+            k = max(d + 1, int(np.ceil(trim * n)))
+            if k < n:
+                pts = pts[np.sort(np.argsort(d2, kind="stable")[:k])]
+                self.mean = pts.mean(axis=0)
+                self.cov = regularised_cov(pts, cov_reg, self.mean)
+                self._derive_factors()
+                z = np.einsum("ij,kj->ik", pts - self.mean, self.whiten)
+                d2 = np.einsum("ij,ij->i", z, z)
+        self.boundary = float(np.sqrt(np.max(d2)))
         self.fitted = True
 
     def _derive_factors(self) -> None:

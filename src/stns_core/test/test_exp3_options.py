@@ -1,0 +1,166 @@
+"""The paper section 7.3 remedies (options off by default): each test fails if its option
+does nothing, and the defaults are the plain learner."""
+
+import numpy as np
+import pytest
+from conftest import make_learner
+from stns_core.agent import BACKWARD, CLOCKWISE, COUNTER_CLOCKWISE, FORWARD, greedy_behaviour
+from stns_core.situation import R_KIND, T_KIND, Situation
+
+from stns_core import StnsAgent, StnsConfig, StnsConfigError, StnsInputError
+
+
+def _polar(bearing_deg, dist=50.0):
+    a = np.radians(bearing_deg)
+    return np.array([dist * np.cos(a), dist * np.sin(a)])
+
+
+def test_defaults_switch_the_options_off():
+    cfg = StnsConfig()
+    assert cfg.exploration == "uniform"
+    assert cfg.elimination_grace_steps == 0
+    assert cfg.shape_trim == 1.0
+    assert cfg.range_clip == 0.0
+
+
+@pytest.mark.parametrize("key,value,match", [
+    ("exploration", "greedy", "exploration must be one of"),
+    ("greedy_prob", 1.5, "greedy_prob must be in"),
+    ("greedy_align_deg", 0.0, "greedy_align_deg must be in"),
+    ("elimination_grace_steps", -1, "elimination_grace_steps must be >= 0"),
+    ("shape_trim", 0.0, "shape_trim must be in"),
+    ("shape_trim", 1.2, "shape_trim must be in"),
+    ("range_clip", -1.0, "range_clip must be >= 0"),
+])
+def test_bad_option_values_raise(key, value, match):
+    with pytest.raises(StnsConfigError, match=match):
+        StnsConfig(**{key: value})
+
+
+@pytest.mark.parametrize("bearing,expected", [
+    (0.0, FORWARD), (10.0, FORWARD), (-14.0, FORWARD),
+    (180.0, BACKWARD), (-170.0, BACKWARD),
+    (45.0, COUNTER_CLOCKWISE), (-45.0, CLOCKWISE),   # bring the goal ahead
+    (120.0, CLOCKWISE), (-120.0, COUNTER_CLOCKWISE),  # bring it behind
+])
+def test_greedy_behaviour_heads_for_the_goal(bearing, expected):
+    assert greedy_behaviour(_polar(bearing), 15.0) == expected
+
+
+def test_greedy_exploration_changes_the_choice_and_stops_when_aligned():
+    obs = np.concatenate([_polar(60.0), np.full(6, 30.0)])
+    cfg = StnsConfig.preset("exp3", exploration="greedy_goal", greedy_prob=1.0)
+    agent = StnsAgent(cfg, obs_dim=8, n_behaviours=4)
+    assert agent.step(obs, 0.0, False) == COUNTER_CLOCKWISE  # no situation: exploration
+    # turning: goes on while the goal is off the line, stops once it is within 15 degrees
+    assert agent.step(np.concatenate([_polar(30.0), obs[2:]]), 0.0, False) == COUNTER_CLOCKWISE
+    agent.step(np.concatenate([_polar(5.0), obs[2:]]), 0.0, False)
+    (rec,) = agent.pop_records()
+    assert rec.behaviour == COUNTER_CLOCKWISE and not rec.planned and rec.ticks == 2
+    # uniform exploration from the same seed picks other behaviours for the same input
+    uni = StnsAgent(StnsConfig.preset("exp3"), obs_dim=8, n_behaviours=4)
+    greedy = StnsAgent(cfg, obs_dim=8, n_behaviours=4)
+    picks_u, picks_g = set(), set()
+    for _ in range(20):
+        picks_u.add(uni.step(obs, 0.0, False))
+        uni.reset_trial()
+        picks_g.add(greedy.step(obs, 0.0, False))
+        greedy.reset_trial()
+    assert picks_g == {COUNTER_CLOCKWISE} and len(picks_u) > 1
+
+
+def test_greedy_prob_mixes_with_uniform_and_uses_the_agents_generator():
+    obs = np.concatenate([_polar(0.0), np.full(6, 30.0)])
+    cfg = StnsConfig.preset("exp3", exploration="greedy_goal", greedy_prob=0.5, seed=4)
+
+    def picks():
+        agent = StnsAgent(cfg, obs_dim=8, n_behaviours=4)
+        out = []
+        for _ in range(200):
+            out.append(agent.step(obs, 0.0, False))
+            agent.reset_trial()
+        return out
+
+    a, b = picks(), picks()
+    assert a == b  # seeded
+    share = a.count(FORWARD) / len(a)
+    assert 0.5 < share < 0.8  # 0.5 greedy + 0.5 x 1/4 uniform = 0.625
+
+
+def test_greedy_needs_the_goal_sensor_and_four_behaviours():
+    cfg = StnsConfig(exploration="greedy_goal")
+    with pytest.raises(StnsInputError, match="greedy_goal"):
+        StnsAgent(cfg, obs_dim=2, n_behaviours=3)
+
+
+def test_greedy_agent_saves_and_loads_mid_step(tmp_path):
+    obs = np.concatenate([_polar(60.0), np.full(6, 30.0)])
+    cfg = StnsConfig.preset("exp3", exploration="greedy_goal", greedy_prob=1.0)
+    agent = StnsAgent(cfg, obs_dim=8, n_behaviours=4)
+    agent.step(obs, 0.0, False)
+    agent.save(tmp_path / "a.npz")
+    back = StnsAgent.load(tmp_path / "a.npz")
+    assert back._run.greedy
+    nxt = np.concatenate([_polar(5.0), obs[2:]])
+    back.step(nxt, 0.0, False)
+    assert back.pop_records()[-1].ticks == 1  # stopped as a greedy turn
+
+
+def _negative_young_situation(grace):
+    lrn = make_learner(elimination_grace_steps=grace)
+    for _ in range(5):
+        lrn.add_record(np.zeros(2), 0, 0, 0.0, np.zeros(2), 0, False)
+    sit = Situation(lrn.next_id, T_KIND, 0, lrn.hist.capacity, 2, parent=0,
+                    created=lrn.hist.total)
+    lrn.next_id += 1
+    lrn.order.append(sit)
+    lrn.by_id[sit.id] = sit
+    lrn.compute_utilities = lambda: {s.id: -1.0 for s in lrn.order}
+    lrn._structure_changed = lambda: None
+    return lrn, sit
+
+
+def test_elimination_grace_protects_young_situations_from_operation_5():
+    lrn, sit = _negative_young_situation(0)
+    lrn._periodic()
+    assert sit.id not in lrn.by_id  # the paper's operation 5
+    lrn, sit = _negative_young_situation(50)
+    lrn._periodic()
+    assert sit.id in lrn.by_id  # younger than the grace period: kept
+    for _ in range(50):
+        lrn.hist.append(np.zeros(2), 0, 0, 0.0, np.zeros(2), 0, False)
+    lrn._periodic()
+    assert sit.id not in lrn.by_id  # grace over: operation 5 again
+
+
+def test_shape_trim_fits_the_core_of_the_positives():
+    rng = np.random.default_rng(0)
+    core = rng.normal(size=(40, 3))
+    outliers = rng.normal(size=(4, 3)) * 2.0 + np.array([12.0, -9.0, 6.0])
+    pts = np.vstack([core, outliers])
+    full = Situation(1, R_KIND, 0, len(pts), 3, reward_key=10.0)
+    full.pos[:] = True
+    full.fit(pts, 1e-3)
+    same = Situation(1, R_KIND, 0, len(pts), 3, reward_key=10.0)
+    same.pos[:] = True
+    same.fit(pts, 1e-3, 1.0)
+    assert np.array_equal(full.mean, same.mean) and full.boundary == same.boundary
+    trimmed = Situation(1, R_KIND, 0, len(pts), 3, reward_key=10.0)
+    trimmed.pos[:] = True
+    trimmed.fit(pts, 1e-3, 0.9)
+    assert np.linalg.det(trimmed.cov) < 0.05 * np.linalg.det(full.cov)
+    assert np.linalg.norm(trimmed.mean) < 0.5
+    assert not trimmed.accepts(outliers[0], pts) and full.accepts(outliers[0], pts)
+    assert all(trimmed.accepts(p, pts) for p in core[np.linalg.norm(core, axis=1) < 1.5])
+
+
+def test_range_clip_preprocesses_the_range_dims_only():
+    obs = np.array([80.0, -70.0, 10.0, 45.0, 120.0, 30.0, 31.0, 90.0])
+    plain = StnsAgent(StnsConfig.preset("exp3"), obs_dim=8, n_behaviours=4)
+    clip = StnsAgent(StnsConfig.preset("exp3", range_clip=40.0), obs_dim=8, n_behaviours=4)
+    for agent in (plain, clip):
+        agent.step(obs, 0.0, False)
+        agent.step(obs, -1.0, False)
+    (rp,), (rc,) = plain.pop_records(), clip.pop_records()
+    assert np.array_equal(rp.x, obs)
+    assert np.array_equal(rc.x, [80.0, -70.0, 10.0, 40.0, 40.0, 30.0, 31.0, 40.0])
