@@ -93,15 +93,14 @@ class RangeSensor:
         """Six ranges in u (float64 holding float32 values), sector order as SECTOR_NAMES."""
         x, y, th = pose
         a = self._angles + th
-        r = self._max_range
-        ox, oy = x * UNIT_M, y * UNIT_M
-        tx = ox + np.cos(a) * (r * UNIT_M)
-        ty = oy + np.sin(a) * (r * UNIT_M)
-        z = self._height
-        frm = [(ox, oy, z)] * len(a)
-        to = [(float(px), float(py), z) for px, py in zip(tx, ty, strict=True)]
-        hits = self._client.rayTestBatch(frm, to)
-        frac = np.array([h[2] if h[0] >= 0 else 1.0 for h in hits])
-        dist = frac * r
-        ranges = dist[self._index].min(axis=1)
+        reach = self._max_range * UNIT_M
+        ox, oy, z = x * UNIT_M, y * UNIT_M, self._height
+        ends = np.empty((len(a), 3))
+        ends[:, 0] = ox + np.cos(a) * reach
+        ends[:, 1] = oy + np.sin(a) * reach
+        ends[:, 2] = z
+        hits = self._client.rayTestBatch([(ox, oy, z)] * len(a), ends.tolist())
+        # a miss reports fraction 1.0, i.e. max_range
+        frac = np.fromiter((h[2] for h in hits), dtype=np.float64, count=len(a))
+        ranges = (frac * self._max_range)[self._index].min(axis=1)
         return ranges.astype(np.float32).astype(np.float64)

@@ -9,7 +9,8 @@ computes the tick's events from the new base pose:
   footprint further into a wall or obstacle than it was before the tick. The
   ``post_collision`` rule then places the rover (see `WorldConfig.post_collision`).
   Pure rotation (v == 0) is never checked for collision, and walls exert no contact
-  force on the rover (collision groups), so a rotation next to a wall is never stopped;
+  force on the rover (rover-wall collision pairs are switched off in pybullet), so a
+  rotation next to a wall is never stopped;
   a translation out of such an overlap is allowed, one further into it collides.
 - ``"over_rotation"`` (-1): pure rotation ticks in one direction accumulate the measured
   heading change; when it passes ``max_rotation_deg`` the penalty is given and the
