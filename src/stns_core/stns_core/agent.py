@@ -219,6 +219,9 @@ class StnsAgent:
             return x, s_now
         if run.greedy and self._greedy_done(run.b, x):
             return x, s_now
+        if (not run.planned and cfg.explore_max_ticks
+                and run.ticks >= cfg.explore_max_ticks):
+            return x, s_now
         if cfg.max_behaviour_ticks and run.ticks >= cfg.max_behaviour_ticks:
             return x, s_now
         run.prev_x = x

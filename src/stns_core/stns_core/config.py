@@ -70,6 +70,7 @@ class StnsConfig:
     greedy_prob: float = 0.5
     greedy_align_deg: float = 15.0
     elimination_grace_steps: int = 0
+    explore_max_ticks: int = 0
     shape_trim: float = 1.0
     range_clip: float = 0.0
 
@@ -78,7 +79,7 @@ class StnsConfig:
             "n_init_r": 1, "n_min_r": 1, "n_init_t": 1, "n_min_t": 1, "n_max": 1,
             "history_size": 2, "adjust_interval": 1, "seed": 0,
             "target_lookahead_ticks": 0, "max_behaviour_ticks": 0, "event_log_size": 1,
-            "elimination_grace_steps": 0,
+            "elimination_grace_steps": 0, "explore_max_ticks": 0,
         }
         for name, lowest in ints.items():
             value = getattr(self, name)

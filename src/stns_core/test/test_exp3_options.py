@@ -164,3 +164,16 @@ def test_range_clip_preprocesses_the_range_dims_only():
     (rp,), (rc,) = plain.pop_records(), clip.pop_records()
     assert np.array_equal(rp.x, obs)
     assert np.array_equal(rc.x, [80.0, -70.0, 10.0, 40.0, 40.0, 30.0, 31.0, 40.0])
+
+
+def test_explore_max_ticks_cuts_exploration_steps_only():
+    obs = np.concatenate([_polar(60.0), np.full(6, 30.0)])
+    out = {}
+    for limit in (0, 3):
+        agent = StnsAgent(StnsConfig.preset("exp3", explore_max_ticks=limit), 8, 4)
+        agent.step(obs, 0.0, False)
+        for _ in range(5):
+            agent.step(obs, 0.0, False)
+        out[limit] = [r.ticks for r in agent.pop_records()]
+    assert out[0] == []  # the random step goes on: no reward, no change of situation
+    assert out[3] == [3]
