@@ -189,10 +189,18 @@ class Learner:
         changed = False
         for sit in self.order:
             if sit.shape_dirty or not only_dirty:
-                sit.fit(self.hist.x, self.cfg.cov_reg, self.cfg.shape_trim)
+                self._fit(sit)
                 changed = True
         if changed:
             self.classifier.invalidate()
+
+    def _fit(self, sit: Situation) -> None:
+        """Operation 2 on one situation, with the shape options of section 7.3 if set."""
+        cfg = self.cfg
+        if cfg.shape_scope == "all" or sit.kind == T_KIND:
+            sit.fit(self.hist.x, cfg.cov_reg, cfg.shape_trim, cfg.boundary_quantile)
+        else:
+            sit.fit(self.hist.x, cfg.cov_reg)
 
     # -- extraction -------------------------------------------------------------------
     def _extract(self) -> bool:
@@ -242,7 +250,7 @@ class Learner:
                         reward_key=key, created=h.total)
         self.next_id += 1
         sit.pos = sit.positive_mask(h, self.cfg.r_min_r)
-        sit.fit(h.x, self.cfg.cov_reg, self.cfg.shape_trim)
+        self._fit(sit)
         self.order.append(sit)  # bottom of the tree until the next re-ordering
         self.by_id[sit.id] = sit
         self._event("extracted", sit, records=count, positives=sit.n_pos)
@@ -351,7 +359,7 @@ class Learner:
         sit.behaviour, sit.parent = b_new, parent.id
         sit.pos = mask
         sit.neg = np.zeros_like(mask)
-        sit.fit(h.x, cfg.cov_reg, cfg.shape_trim)
+        self._fit(sit)
         self._event("redefined", sit, reason=reason, old_behaviour=old[0], old_parent=old[1])
         self._structure_changed()
 

@@ -22,6 +22,7 @@ MAJORITIES = ("strict", "plurality")
 BOUNDARY_REFITS = ("every_step", "interval")
 RELABELS = ("after_modification", "never")
 EXPLORATIONS = ("uniform", "greedy_goal")
+SHAPE_SCOPES = ("all", "t_only")
 
 _PRESETS: dict[str, dict[str, Any]] = {
     # Paper section 7.1 (Exp. 1 and, from a saved learner, Exp. 2).
@@ -72,6 +73,8 @@ class StnsConfig:
     elimination_grace_steps: int = 0
     explore_max_ticks: int = 0
     shape_trim: float = 1.0
+    boundary_quantile: float = 1.0
+    shape_scope: str = "all"
     range_clip: float = 0.0
 
     def __post_init__(self) -> None:
@@ -90,7 +93,7 @@ class StnsConfig:
             if value < lowest:
                 raise StnsConfigError(f"{name} must be >= {lowest}, got {value!r}")
         for name in ("r_min_r", "gamma", "p_min", "cov_reg", "greedy_prob", "greedy_align_deg",
-                     "shape_trim", "range_clip"):
+                     "shape_trim", "boundary_quantile", "range_clip"):
             value = getattr(self, name)
             if isinstance(value, bool | np.bool_) or not isinstance(value, numbers.Real):
                 raise StnsConfigError(f"{name} must be a number, got {value!r}")
@@ -110,6 +113,9 @@ class StnsConfig:
                 f"greedy_align_deg must be in (0, 90), got {self.greedy_align_deg!r}")
         if not 0.0 < self.shape_trim <= 1.0:
             raise StnsConfigError(f"shape_trim must be in (0, 1], got {self.shape_trim!r}")
+        if not 0.0 < self.boundary_quantile <= 1.0:
+            raise StnsConfigError(
+                f"boundary_quantile must be in (0, 1], got {self.boundary_quantile!r}")
         if self.range_clip < 0.0:
             raise StnsConfigError(f"range_clip must be >= 0 (0 = off), got {self.range_clip!r}")
         if self.n_min_r > self.history_size or self.n_init_t > self.history_size:
@@ -121,7 +127,7 @@ class StnsConfig:
         choices = {
             "planner": PLANNERS, "random_stop": RANDOM_STOPS, "majority": MAJORITIES,
             "boundary_refit": BOUNDARY_REFITS, "relabel": RELABELS,
-            "exploration": EXPLORATIONS,
+            "exploration": EXPLORATIONS, "shape_scope": SHAPE_SCOPES,
         }
         for name, allowed in choices.items():
             value = getattr(self, name)

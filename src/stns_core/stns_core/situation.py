@@ -94,12 +94,15 @@ class Situation:
         return int(np.count_nonzero(self.neg & ~self.pos))
 
     # -- shape (operation 2) ----------------------------------------------------------
-    def fit(self, x: np.ndarray, cov_reg: float, trim: float = 1.0) -> None:
+    def fit(self, x: np.ndarray, cov_reg: float, trim: float = 1.0,
+            quantile: float = 1.0) -> None:
         """Mean, regularised covariance and boundary on the farthest positive instance.
 
         ``trim < 1`` (option ``shape_trim``, not the paper's): after the full fit, keep the
         ``ceil(trim * n)`` positives nearest to the mean (Mahalanobis; at least d + 1), refit
         mean and covariance on them and put the boundary on the farthest kept one.
+        ``quantile < 1`` (option ``boundary_quantile``): the boundary on that quantile of the
+        (kept) positives' Mahalanobis distances instead of the farthest one.
         """
         pts = x[self.pos]
         self.shape_dirty = False
@@ -122,7 +125,10 @@ class Situation:
                 self._derive_factors()
                 z = np.einsum("ij,kj->ik", pts - self.mean, self.whiten)
                 d2 = np.einsum("ij,ij->i", z, z)
-        self.boundary = float(np.sqrt(np.max(d2)))
+        if quantile < 1.0:
+            self.boundary = float(np.sqrt(np.quantile(d2, quantile)))
+        else:
+            self.boundary = float(np.sqrt(np.max(d2)))
         self.fitted = True
 
     def _derive_factors(self) -> None:

@@ -20,7 +20,8 @@ def test_defaults_switch_the_options_off():
     assert cfg.exploration == "uniform"
     assert cfg.elimination_grace_steps == 0
     assert cfg.shape_trim == 1.0
-    assert cfg.range_clip == 0.0
+    assert cfg.range_clip == 0.0 and cfg.explore_max_ticks == 0
+    assert cfg.boundary_quantile == 1.0 and cfg.shape_scope == "all"
 
 
 @pytest.mark.parametrize("key,value,match", [
@@ -31,6 +32,9 @@ def test_defaults_switch_the_options_off():
     ("shape_trim", 0.0, "shape_trim must be in"),
     ("shape_trim", 1.2, "shape_trim must be in"),
     ("range_clip", -1.0, "range_clip must be >= 0"),
+    ("explore_max_ticks", -2, "explore_max_ticks must be >= 0"),
+    ("boundary_quantile", 0.0, "boundary_quantile must be in"),
+    ("shape_scope", "r_only", "shape_scope must be one of"),
 ])
 def test_bad_option_values_raise(key, value, match):
     with pytest.raises(StnsConfigError, match=match):
@@ -177,3 +181,40 @@ def test_explore_max_ticks_cuts_exploration_steps_only():
         out[limit] = [r.ticks for r in agent.pop_records()]
     assert out[0] == []  # the random step goes on: no reward, no change of situation
     assert out[3] == [3]
+
+
+def test_boundary_quantile_tightens_the_boundary():
+    rng = np.random.default_rng(1)
+    pts = rng.normal(size=(100, 8))
+    sits = {}
+    for q in (1.0, 0.8):
+        sit = Situation(1, T_KIND, 0, len(pts), 8, parent=2)
+        sit.pos[:] = True
+        sit.fit(pts, 1e-3, 1.0, q)
+        sits[q] = sit
+    d = np.sqrt(sits[1.0].mahalanobis2(pts))
+    assert sits[1.0].boundary == pytest.approx(d.max())
+    assert sits[0.8].boundary == pytest.approx(np.sqrt(np.quantile(d * d, 0.8)))
+    assert np.mean(d <= sits[0.8].boundary + 1e-9) == pytest.approx(0.8, abs=0.011)
+
+
+def test_shape_scope_t_only_leaves_r_situations_alone():
+    rng = np.random.default_rng(2)
+    pts = rng.normal(size=(60, 2)) * np.array([3.0, 1.0])
+    boundaries = {}
+    for scope in ("all", "t_only"):
+        lrn = make_learner(boundary_quantile=0.5, shape_scope=scope, history_size=100)
+        for p in pts:
+            lrn.hist.append(p, 0, 0, 10.0, p, 0, True)
+        r = Situation(1, R_KIND, 0, lrn.hist.capacity, 2, reward_key=10.0)
+        t = Situation(2, T_KIND, 0, lrn.hist.capacity, 2, parent=1)
+        for sit in (r, t):
+            sit.pos[:60] = True
+            lrn._fit(sit)
+        boundaries[scope] = (r.boundary, t.boundary)
+    full = Situation(3, R_KIND, 0, 60, 2, reward_key=10.0)
+    full.pos[:] = True
+    full.fit(pts, 1e-3)
+    assert boundaries["all"][0] < full.boundary and boundaries["all"][1] < full.boundary
+    assert boundaries["t_only"][0] == full.boundary
+    assert boundaries["t_only"][1] == boundaries["all"][1]
