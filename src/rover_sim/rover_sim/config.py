@@ -51,7 +51,7 @@ class Box:
 
     def __post_init__(self) -> None:
         for name in ("cx", "cy", "sx", "sy"):
-            _finite(f"Box.{name}", getattr(self, name))
+            object.__setattr__(self, name, _finite(f"Box.{name}", getattr(self, name)))
         if self.sx <= 0 or self.sy <= 0:
             raise RoverSimError(f"Box sizes must be positive, got sx={self.sx!r}, sy={self.sy!r}")
 
