@@ -72,7 +72,7 @@ class StnsAgentNode(Node):
             if f.name in ("gamma", "p_min"):
                 rng = (0.0, 1.0)
             elif isinstance(default, int) and not isinstance(default, bool):
-                lowest = INT_LOWEST.get(f.name, 1)
+                lowest = min(INT_LOWEST.get(f.name, 1), default)  # fields added later
                 rng = (lowest, 2**32 - 1 if f.name == "seed" else 10**9)
             p[f.name] = declare(self, f.name, default,
                                 f"StnsConfig.{f.name} (stns_core; preset value by default).",
@@ -120,8 +120,13 @@ class StnsAgentNode(Node):
         from rover_sim import WorldConfig
 
         self.obs_dim = WorldConfig.preset(p["world_preset"], **overrides).observation_dim
-        self.driver = AgentDriver(make_agent(learner, self.obs_dim, p["state_in"]),
-                                  action_velocities(p["world_preset"], overrides))
+        from stns_core import StnsError
+
+        try:
+            agent = make_agent(learner, self.obs_dim, p["state_in"])
+        except (StnsError, OSError) as e:
+            raise StnsRosError(f"learner: {e}") from None
+        self.driver = AgentDriver(agent, action_velocities(p["world_preset"], overrides))
         self.max_steps = int(p["max_behaviour_steps"])
         self.start_steps = self.driver.behaviour_steps  # > 0 for a saved learner
         self.done = False
