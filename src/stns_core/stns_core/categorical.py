@@ -255,6 +255,28 @@ class Learner:
         self.by_id[sit.id] = sit
         self._event("extracted", sit, records=count, positives=sit.n_pos)
         self._structure_changed()
+        self._negatives_from_history(sit)
+
+    def _negatives_from_history(self, sit: Situation) -> None:
+        """Option ``negatives_from_history`` (not the paper's): a new or redefined situation
+        takes as negative instances the stored records that operation 1 would have made
+        negatives had it existed then: its behaviour, its result not met, the start input
+        classified into it now. Their nearest-neighbour bites then cut out at once the parts
+        of the ellipsoid where the behaviour failed; the history is re-labelled after."""
+        if not self.cfg.negatives_from_history:
+            return
+        h = self.hist
+        idx = np.flatnonzero(h.valid & (h.b == sit.behaviour)
+                             & ~sit.positive_mask(h, self.cfg.r_min_r) & ~sit.pos)
+        if len(idx) == 0:
+            return
+        inside = idx[self.classify_batch(h.x[idx]) == sit.id]
+        if len(inside) == 0:
+            return
+        sit.neg[inside] = True
+        sit.nn_dirty = True
+        self._event("negatives_seeded", sit, negatives=int(len(inside)))
+        self._structure_changed()
 
     # -- operation 4 ------------------------------------------------------------------
     def _inappropriate(self, sit: Situation, counts: np.ndarray) -> str | None:
@@ -362,6 +384,7 @@ class Learner:
         self._fit(sit)
         self._event("redefined", sit, reason=reason, old_behaviour=old[0], old_parent=old[1])
         self._structure_changed()
+        self._negatives_from_history(sit)
 
     def _eliminate(self, sit: Situation, reason: str) -> None:
         self.order.remove(sit)

@@ -75,6 +75,7 @@ class StnsConfig:
     shape_trim: float = 1.0
     boundary_quantile: float = 1.0
     shape_scope: str = "all"
+    negatives_from_history: bool = False
     range_clip: float = 0.0
 
     def __post_init__(self) -> None:
@@ -124,6 +125,10 @@ class StnsConfig:
         if not isinstance(self.iprl_memo, bool | np.bool_):
             raise StnsConfigError(f"iprl_memo must be a bool, got {self.iprl_memo!r}")
         object.__setattr__(self, "iprl_memo", bool(self.iprl_memo))
+        if not isinstance(self.negatives_from_history, bool | np.bool_):
+            raise StnsConfigError(
+                f"negatives_from_history must be a bool, got {self.negatives_from_history!r}")
+        object.__setattr__(self, "negatives_from_history", bool(self.negatives_from_history))
         choices = {
             "planner": PLANNERS, "random_stop": RANDOM_STOPS, "majority": MAJORITIES,
             "boundary_refit": BOUNDARY_REFITS, "relabel": RELABELS,

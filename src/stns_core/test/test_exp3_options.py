@@ -22,6 +22,7 @@ def test_defaults_switch_the_options_off():
     assert cfg.shape_trim == 1.0
     assert cfg.range_clip == 0.0 and cfg.explore_max_ticks == 0
     assert cfg.boundary_quantile == 1.0 and cfg.shape_scope == "all"
+    assert cfg.negatives_from_history is False
 
 
 @pytest.mark.parametrize("key,value,match", [
@@ -218,3 +219,32 @@ def test_shape_scope_t_only_leaves_r_situations_alone():
     assert boundaries["all"][0] < full.boundary and boundaries["all"][1] < full.boundary
     assert boundaries["t_only"][0] == full.boundary
     assert boundaries["t_only"][1] == boundaries["all"][1]
+
+
+def _learner_with_a_t_situation(negatives_from_history):
+    from conftest import ring
+    lrn = make_learner(negatives_from_history=negatives_from_history)
+    goal_side = ring((-20.0, 0.0), radius=2.0, n=4)
+    for p in goal_side:  # R-situation (behaviour 0, reward 10) after the 4th
+        lrn.add_record(p, 0, 0, 10.0, p, 0, True)
+    (r_sit,) = lrn.order
+    inner = ring((20.0, 20.0), radius=0.7, n=6)  # behaviour 1 failed here ...
+    for p in inner:
+        lrn.add_record(p, 0, 1, -1.0, p + 1.0, 0, False)
+    outer = ring((20.0, 20.0), radius=3.0, n=8)  # ... and reached the R-situation from here
+    for p in outer:
+        lrn.add_record(p, lrn.classify(p), 1, 0.0, goal_side[0], r_sit.id, False)
+    t_sits = [s for s in lrn.order if s.kind == T_KIND]
+    assert len(t_sits) == 1
+    return lrn, t_sits[0], inner
+
+
+def test_negatives_from_history_bite_a_new_situation_at_once():
+    lrn, sit, inner = _learner_with_a_t_situation(False)
+    assert sit.n_neg == 0
+    assert lrn.classify(np.array([20.0, 20.0])) == sit.id  # the ellipsoid swallows the hole
+    lrn, sit, inner = _learner_with_a_t_situation(True)
+    assert sit.n_neg == len(inner)
+    assert lrn.classify(np.array([20.0, 20.0])) == 0  # bitten out where behaviour 1 failed
+    assert lrn.classify(np.array([22.9, 20.0])) == sit.id
+    assert any(e["event"] == "negatives_seeded" for e in lrn.events)
