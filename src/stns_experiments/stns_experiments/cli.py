@@ -71,6 +71,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--levels", type=float, nargs="+", help="exp2: fault levels (deg or %% slower)")
     p.add_argument("--set", dest="sets", action="append", default=[], metavar="KEY=VALUE",
                    help="override any parameter, e.g. --set agent.overrides.target_lookahead_ticks=2")
+    p.add_argument("--resume", action="store_true",
+                   help="reuse the trial sets already finished in --out (sets/*.json), run the rest")
     p.add_argument("--no-figures", action="store_true", help="skip the PNG figures")
     p.add_argument("--quiet", action="store_true", help="no progress line")
     return p
@@ -124,7 +126,7 @@ def main(args: list[str] | None = None) -> int:
     from stns_experiments.run import RUNNERS, Run
     _stop_on_sigterm()
     try:
-        run = Run(params, out, jobs, command, progress=not ns.quiet)
+        run = Run(params, out, jobs, command, progress=not ns.quiet, resume=ns.resume)
         summary = RUNNERS[ns.experiment](run)
     except ExperimentError as e:
         sys.stderr.write(f"stns-experiment: error: {e}\n")

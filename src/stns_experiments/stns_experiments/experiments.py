@@ -235,9 +235,11 @@ def task_random(task: dict, progress) -> dict:
     finally:
         world.close()
     table = R.head(R.to_table(recs), task["steps"])
-    return {"key": task["key"], "steps": task["steps"], "arrivals": int(table["arrival"].sum()),
-            "behaviours": int((~table["arrival"]).sum()), "wall_seconds": time.monotonic() - t0,
-            "arrivals_per_100": M.arrivals_per_100(table)}
+    res = {"key": task["key"], "steps": task["steps"], "arrivals": int(table["arrival"].sum()),
+           "behaviours": int((~table["arrival"]).sum()), "wall_seconds": time.monotonic() - t0,
+           "arrivals_per_100": M.arrivals_per_100(table)}
+    write_json(_set_paths(Path(task["out"]), task["key"])["result"], res)
+    return res
 
 
 def task_grid(task: dict, progress) -> dict:

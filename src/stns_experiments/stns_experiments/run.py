@@ -43,7 +43,8 @@ class Run:
     """One invocation: parameters, output folder, timing, task errors."""
 
     def __init__(self, params: dict, out: Path, jobs: int, command: str,
-                 progress: bool = True) -> None:
+                 progress: bool = True, resume: bool = False) -> None:
+        self.resume = resume
         self.params, self.out, self.jobs = params, Path(out), max(1, int(jobs))
         self.command, self.progress = command, progress
         self.t0 = time.monotonic()
@@ -55,7 +56,17 @@ class Run:
     def tasks(self, tasks: list[dict], label: str) -> dict[str, dict]:
         if self.interrupted:
             return {}
+        done: dict[str, dict] = {}
+        if self.resume:
+            for t in tasks:
+                f = Path(t["out"]) / "sets" / f"{t['key']}.json"
+                if f.is_file():
+                    done[t["key"]] = json.loads(f.read_text())
+            tasks = [t for t in tasks if t["key"] not in done]
+            if done:
+                log.info("resume: %d finished task(s) loaded, %d to run", len(done), len(tasks))
         res, err, intr = run_tasks(dispatch, tasks, self.jobs, label, self.progress)
+        res = {**done, **res}
         self.errors.update(err)
         self.interrupted = self.interrupted or intr
         for k, e in err.items():
@@ -155,8 +166,9 @@ def _safe_figure(figures: list[str], run: Run, fn, *args, **kw) -> None:
         path = fn(*args, **kw)
         figures.append(str(Path(path).relative_to(run.out)))
     except Exception as e:  # noqa: BLE001 - a failed figure must not lose the results
-        log.warning("figure %s failed: %s", args[0] if args else fn.__name__, e)
-        run.errors[f"figure:{Path(args[0]).name if args else fn.__name__}"] = str(e)
+        name = next((Path(a).name for a in args if isinstance(a, (str, Path))), fn.__name__)
+        log.warning("figure %s failed: %s", name, e)
+        run.errors[f"figure:{name}"] = str(e)
 
 
 def _map_from_state(run: Run, state: Path, path: Path, title: str) -> Path:
@@ -333,6 +345,14 @@ def run_exp2(run: Run) -> dict:
                              f"{p['experiment']} {ln}: situations {p['steps']} steps after "
                              f"the fault, {rl[0]['key']} (Fig. {fig})")
     summary = summarise_sets(all_relearn, p, p["steps"]) if all_relearn else {}
+    summary["relearn_runs_pooled"] = summary.pop("trial_sets", 0)
+    if base_results:
+        base = summarise_sets(base_results, base_params, p["pretrain_steps"])
+        summary["prefault"] = {k: base.get(k) for k in (
+            "trial_sets", "final_behaviours_to_goal", "convergence_step",
+            "convergence_step_trailing", "success_rate_r", "success_rate_t",
+            "within_two_behaviours", "situations_final", "set_cpu_seconds_mean",
+            "behaviour_steps_per_cpu_second", "set_wall_seconds_mean")}
     summary.update(random_summary(_sorted(res, "random")))
     summary.update({"levels": levels, "pretrain_steps": p["pretrain_steps"],
                     "from": str(base_dir), "prefault_final_behaviours_to_goal": base_final,

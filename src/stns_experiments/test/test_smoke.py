@@ -73,3 +73,13 @@ def test_smoke_grid(tmp_path):
     assert set(s["learners"]) == {"polar-q", "polar-model", "orthogonal-q", "orthogonal-model"}
     assert s["stns"]["trial_sets"] == 1
     assert "grid_vs_stns.png" in " ".join(s["figures"])
+
+
+def test_resume_reuses_finished_trial_sets(tmp_path):
+    out, s1 = _run(tmp_path, ["exp1", "--steps", "120", "--no-figures"] + SMALL)
+    stamp = (out / "sets" / "set00.json").stat().st_mtime_ns
+    code = main(["exp1", "--steps", "120", "--no-figures", "--resume", "--out", str(out)] + SMALL)
+    assert code == 0
+    s2 = json.loads((out / "summary.json").read_text())
+    assert (out / "sets" / "set00.json").stat().st_mtime_ns == stamp
+    assert s2["behaviours_to_goal_by_block"] == s1["behaviours_to_goal_by_block"]
