@@ -43,6 +43,7 @@ def curve_figure(path: Path, series: Sequence[dict], title: str, block_size: int
         ax.set_yscale("log")
         ax.set_yticks([1, 2, 3, 5, 10, 20, 50, 100])
         ax.get_yaxis().set_major_formatter(matplotlib.ticker.ScalarFormatter())
+        ax.get_yaxis().set_minor_formatter(matplotlib.ticker.NullFormatter())
         ax.set_ylim(1, None)
     ax.set_xlabel(xlabel)
     ax.set_ylabel(ylabel + f" (blocks of {block_size})")
@@ -150,5 +151,45 @@ def workspace_map(path: Path, world, classify: Callable[[np.ndarray], int],
         ax.legend(handles=handles, fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0))
     fig.tight_layout()
     fig.savefig(path, bbox_inches="tight")
+    plt.close(fig)
+    return Path(path)
+
+
+def panel_figure(path: Path, panels: Sequence[dict], title: str, block_size: int,
+                 xlabel: str = "behaviour steps after the fault") -> Path:
+    """Several relearn-vs-scratch panels side by side (Fig. 8 / Fig. 10 layout).
+
+    Each panel: {"title", "series": [curve_figure series], "level": optional line}.
+    """
+    n = len(panels)
+    cols = min(3, n)
+    rows = (n + cols - 1) // cols
+    fig, axes = plt.subplots(rows, cols, figsize=(4.2 * cols, 3.2 * rows), dpi=100,
+                             squeeze=False, sharey=True)
+    for ax, panel in zip(axes.flat, panels, strict=False):
+        for s in panel["series"]:
+            y = np.asarray(s["y"], dtype=float)
+            x = (np.arange(len(y)) + 1) * block_size
+            line, = ax.plot(x, y, s.get("style", "-"), lw=1.4, label=s["label"])
+            if s.get("lo") is not None and s.get("hi") is not None:
+                ax.fill_between(x, np.asarray(s["lo"], float), np.asarray(s["hi"], float),
+                                color=line.get_color(), alpha=0.18, lw=0)
+        if panel.get("level") is not None:
+            ax.axhline(panel["level"], color="k", ls=":", lw=1.0, label="pre-fault level")
+        ax.set_yscale("log")
+        ax.set_yticks([1, 2, 3, 5, 10, 20, 50])
+        ax.get_yaxis().set_major_formatter(matplotlib.ticker.ScalarFormatter())
+        ax.get_yaxis().set_minor_formatter(matplotlib.ticker.NullFormatter())
+        ax.set_ylim(1.5, 60)
+        ax.set_title(panel["title"], fontsize=9)
+        ax.grid(True, which="both", alpha=0.3)
+        ax.set_xlabel(xlabel, fontsize=8)
+    for ax in axes.flat[n:]:
+        ax.axis("off")
+    axes.flat[0].set_ylabel(f"behaviours to goal (blocks of {block_size})", fontsize=8)
+    axes.flat[0].legend(fontsize=7)
+    fig.suptitle(title, fontsize=10)
+    fig.tight_layout()
+    fig.savefig(path)
     plt.close(fig)
     return Path(path)

@@ -344,6 +344,25 @@ def run_exp2(run: Run) -> dict:
                              run.out / "figures" / f"{p['experiment']}_{ln}_situations.png",
                              f"{p['experiment']} {ln}: situations {p['steps']} steps after "
                              f"the fault, {rl[0]['key']} (Fig. {fig})")
+    panels = []
+    for ln, e in levels.items():
+        series = [{"label": f"relearn ({k['trial_sets']} sets)" if i == 0 else
+                   f"scratch ({k['trial_sets']} sets)",
+                   "y": k["behaviours_to_goal_by_block"],
+                   "lo": k["behaviours_to_goal_by_block_q25"],
+                   "hi": k["behaviours_to_goal_by_block_q75"], "style": "-" if i == 0 else "--"}
+                  for i, k in enumerate((e.get("relearn"), e.get("scratch"))) if k]
+        if series:
+            panels.append({"title": f"{ln}: delay {e.get('delay_steps')} steps, "
+                                    f"eliminated {e.get('eliminated_after_fault_mean', 0):.1f}",
+                           "series": series, "level": base_final})
+    if panels:
+        fig = "8" if p["fault"].startswith("goal") else "10"
+        _safe_figure(figures, run, plots.panel_figure,
+                     run.out / "figures" / f"{p['experiment']}_all.png", panels,
+                     f"{p['experiment']}: relearning after {p['pretrain_steps']} steps vs "
+                     f"learning from scratch with the fault (Fig. {fig}), seed {p['seed']}",
+                     p["block_size"])
     summary = summarise_sets(all_relearn, p, p["steps"]) if all_relearn else {}
     summary["relearn_runs_pooled"] = summary.pop("trial_sets", 0)
     if base_results:
