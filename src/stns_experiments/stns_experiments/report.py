@@ -73,7 +73,8 @@ def _counts(c) -> str:
 def exp2_table(s: dict) -> str:
     head = ("| fault | relearn: final | scratch: final | relearn reaches scratch level at | "
             "scratch at | delay (steps) | blocks worse than pre-fault | situations eliminated "
-            "(mean) | sets without elimination |\n|---|---|---|---|---|---|---|---|---|\n")
+            "(mean) | sets without elimination | pre-fault situations gone (mean of) |\n"
+            "|---|---|---|---|---|---|---|---|---|---|\n")
     rows = []
     for name, e in s.get("levels", {}).items():
         rl, sc = e.get("relearn", {}), e.get("scratch", {})
@@ -83,7 +84,9 @@ def exp2_table(s: dict) -> str:
             f"{_num(e.get('scratch_reaches_at'))} | {_num(e.get('delay_steps'))} | "
             f"{_num(e.get('blocks_worse_than_prefault'))} of {len(rl.get('behaviours_to_goal_by_block', []))} | "
             f"{_num(e.get('eliminated_after_fault_mean'), 1)} | "
-            f"{e.get('sets_without_elimination', '-')}/{rl.get('trial_sets', '-')} |")
+            f"{e.get('sets_without_elimination', '-')}/{rl.get('trial_sets', '-')} | "
+            f"{_num(e.get('original_situations_gone_mean'), 1)} of "
+            f"{_num(e.get('situations_before_mean'), 1)} |")
     return head + "\n".join(rows)
 
 
