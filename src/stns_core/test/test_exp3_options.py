@@ -248,3 +248,15 @@ def test_negatives_from_history_bite_a_new_situation_at_once():
     assert lrn.classify(np.array([20.0, 20.0])) == 0  # bitten out where behaviour 1 failed
     assert lrn.classify(np.array([22.9, 20.0])) == sit.id
     assert any(e["event"] == "negatives_seeded" for e in lrn.events)
+
+
+def test_improved_exp3_yaml_is_the_preset_plus_greedy_exploration():
+    from pathlib import Path
+
+    yaml = pytest.importorskip("yaml")
+    path = Path(__file__).resolve().parents[3] / "config" / "stns_exp3_improved.yaml"
+    if not path.exists():
+        pytest.skip(f"{path} not in this checkout")
+    params = yaml.safe_load(path.read_text())["/**"]["ros__parameters"]
+    assert StnsConfig.from_dict(params) == StnsConfig.preset(
+        "exp3", exploration="greedy_goal", greedy_prob=1.0, greedy_align_deg=5.0)
