@@ -68,8 +68,8 @@ class StnsConfig:
     # Exp. 3 remedies of paper section 7.3 (algorithm.md, "Section 7.3 options"). The
     # defaults switch every one of them off: the learner is then bit-for-bit the one above.
     exploration: str = "uniform"
-    greedy_prob: float = 0.5
-    greedy_align_deg: float = 15.0
+    greedy_prob: float = 1.0
+    greedy_align_deg: float = 5.0
     elimination_grace_steps: int = 0
     explore_max_ticks: int = 0
     shape_trim: float = 1.0
