@@ -43,7 +43,10 @@ lint: setup
 
 colcon-test: setup
 	source $(ENV) && colcon test --event-handlers console_direct- --return-code-on-test-failure ; rc=$$? ; \
-	  colcon test-result --verbose ; rc2=$$? ; [ $$rc -eq 0 ] && [ $$rc2 -eq 0 ]
+	  colcon test-result --all --verbose ; rc2=$$? ; [ $$rc -eq 0 ] && [ $$rc2 -eq 0 ]
+	@# every package must report real tests: a missing or empty result fails the run
+	@for p in $$(ls src); do grep -qE '<testsuite[^>]* tests="[1-9]' build/$$p/pytest.xml 2>/dev/null \
+	  || { echo "colcon test: no test results for package $$p" >&2; exit 1; }; done
 
 system-test: setup
 	source $(ENV) && python -m pytest -q test
