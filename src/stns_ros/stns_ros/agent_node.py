@@ -156,6 +156,7 @@ class StnsAgentNode(Node):
         self._t_first = None
         self._t_done = None
         self.frames = 0
+        self.rejected_frames = 0  # frames with a non-finite reading: not learned from
         self.ticks = 0
         self.create_timer(p["watchdog_timeout"] / 2.0, self._watchdog, clock=steady)
         self.get_logger().info(
@@ -217,6 +218,13 @@ class StnsAgentNode(Node):
         if self.obs_dim == 8:
             obs.extend(m_to_u(r) for r in slot["ranges"])
         reward, terminated = slot["reward"]
+        bad = [(name, val) for name, val in zip(self._obs_names(), obs, strict=True)
+               if not math.isfinite(val)]
+        if not math.isfinite(reward):
+            bad.append(("reward", reward))
+        if bad:
+            self._reject_frame(t, bad)
+            return
         self._last_frame_wall = self._steady.now()
         if self._t_first is None:
             self._t_first = time.monotonic()
@@ -244,6 +252,22 @@ class StnsAgentNode(Node):
             self.done = True
             self._t_done = time.monotonic()
             self.get_logger().info(f"{self.driver.behaviour_steps} behaviour steps: done")
+
+    def _obs_names(self) -> list[str]:
+        names = ["goal.x", "goal.y"]
+        return names + [f"ranges[{i}]" for i in range(self.obs_dim - 2)]
+
+    def _reject_frame(self, t: int, bad: list[tuple[str, float]]) -> None:
+        """A frame with NaN/inf never reaches the learner; the rover stops for that tick."""
+        self.rejected_frames += 1
+        what = ", ".join(f"{name}={val!r}" for name, val in bad)
+        self.get_logger().error(
+            f"frame at stamp {t} ns rejected: non-finite reading {what}; rover stopped, "
+            "nothing learned from it")
+        stop = TwistStamped()
+        stop.header.frame_id = "invalid_input"
+        set_stamp(stop.header.stamp, t)
+        self.pub_cmd.publish(stop)
 
     @property
     def run_steps(self) -> int:

@@ -127,3 +127,51 @@ def test_agent_answers_a_frame_and_its_watchdog_stops_the_rover(rclpy_context):
         agent.close()
         agent.destroy_node()
         probe.destroy_node()
+
+
+def test_agent_rejects_a_frame_with_nan_and_stops_the_rover(rclpy_context):
+    import rclpy
+    from geometry_msgs.msg import PointStamped, TwistStamped, Vector3Stamped
+    from stns_ros.agent_node import StnsAgentNode
+    from stns_ros.sim_node import FRAME_QOS
+
+    agent = StnsAgentNode()
+    probe = rclpy.create_node("probe")
+    got = []
+    probe.create_subscription(TwistStamped, "/cmd_vel", got.append, FRAME_QOS)
+    ex = rclpy.executors.SingleThreadedExecutor()
+    ex.add_node(agent)
+    ex.add_node(probe)
+    try:
+        for _ in range(200):  # discovery, up to 10 s on a loaded machine
+            if agent.pub_cmd.get_subscription_count() > 0:
+                break
+            ex.spin_once(timeout_sec=0.05)
+
+        def frame(sec: int, x: float) -> None:
+            goal = PointStamped()
+            goal.header.stamp.sec = sec
+            goal.point.x, goal.point.y = x, -0.5
+            reward = Vector3Stamped()
+            reward.header.stamp.sec = sec
+            agent._on_goal(goal)
+            agent._on_reward(reward)
+
+        frame(3, float("nan"))
+        assert agent.frames == 0 and agent.rejected_frames == 1
+        assert agent.driver.behaviour_steps == 0
+        frame(4, 1.0)  # the next good frame is learned from as usual
+        assert agent.frames == 1 and agent.rejected_frames == 1
+        for _ in range(40):
+            ex.spin_once(timeout_sec=0.05)
+            if len(got) >= 2:
+                break
+        stop, answer = got[0], got[1]
+        assert stop.header.frame_id == "invalid_input" and stop.header.stamp.sec == 3
+        assert (stop.twist.linear.x, stop.twist.angular.z) == (0.0, 0.0)
+        assert answer.header.stamp.sec == 4
+        assert (answer.twist.linear.x, answer.twist.angular.z) != (0.0, 0.0)
+    finally:
+        agent.close()
+        agent.destroy_node()
+        probe.destroy_node()
