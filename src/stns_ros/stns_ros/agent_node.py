@@ -17,16 +17,12 @@ from __future__ import annotations
 import dataclasses
 import json
 import math
-import sys
 import time
 
 import numpy as np
-import rclpy
 from geometry_msgs.msg import PointStamped, TwistStamped, Vector3Stamped
 from rclpy.clock import Clock, ClockType
 from rclpy.duration import Duration
-from rclpy.exceptions import ParameterException
-from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 from rclpy.serialization import serialize_message
@@ -39,7 +35,7 @@ from stns_ros.conversion import UNIT_M, m_to_u, set_stamp, stamp_ns
 from stns_ros.driver import AgentDriver, action_velocities, dumps, make_agent, record_to_dict
 from stns_ros.errors import StnsRosError
 from stns_ros.params import check_choice, declare, result
-from stns_ros.runtime import spin
+from stns_ros.runtime import run_node
 from stns_ros.sim_node import FRAME_QOS
 
 EXPLAIN_QOS = 100
@@ -391,20 +387,7 @@ def situation_markers(info: dict, t: int) -> MarkerArray:
 
 
 def main(args=None) -> None:
-    rclpy.init(args=args)
-    node = None
-    try:
-        node = StnsAgentNode()
-        spin(node, lambda: node.done)
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
-    except (StnsRosError, ParameterException) as e:
-        sys.exit(f"stns_agent_node: {e}")
-    finally:
-        if node is not None:
-            node.close()
-            node.destroy_node()
-        rclpy.try_shutdown()
+    run_node("stns_agent_node", StnsAgentNode, args, done=lambda node: node.done)
 
 
 if __name__ == "__main__":

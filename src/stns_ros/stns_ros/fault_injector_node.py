@@ -9,12 +9,8 @@ validation applies; every change applied (or refused) is published on
 from __future__ import annotations
 
 import json
-import sys
 
-import rclpy
 from rclpy.clock import Clock, ClockType
-from rclpy.exceptions import ParameterException
-from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 from rclpy.parameter_client import AsyncParameterClient
@@ -25,7 +21,7 @@ from stns_ros.driver import dumps
 from stns_ros.errors import StnsRosError
 from stns_ros.faults import FaultScenario, ScenarioClock, load_scenario, parse_scenario, ramp_points
 from stns_ros.params import FAULT_NEUTRAL, declare
-from stns_ros.runtime import spin
+from stns_ros.runtime import run_node
 
 
 class FaultInjectorNode(Node):
@@ -127,19 +123,7 @@ class FaultInjectorNode(Node):
 
 
 def main(args=None) -> None:
-    rclpy.init(args=args)
-    node = None
-    try:
-        node = FaultInjectorNode()
-        spin(node)
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
-    except (StnsRosError, ParameterException) as e:
-        sys.exit(f"fault_injector_node: {e}")
-    finally:
-        if node is not None:
-            node.destroy_node()
-        rclpy.try_shutdown()
+    run_node("fault_injector_node", FaultInjectorNode, args)
 
 
 if __name__ == "__main__":

@@ -9,18 +9,13 @@ use_sim_time). SIGINT/SIGTERM close the bag; a SIGKILL leaves a readable prefix.
 
 from __future__ import annotations
 
-import sys
-
-import rclpy
-from rclpy.exceptions import ParameterException
-from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 
 from stns_ros import topics as T
 from stns_ros.errors import StnsRosError
 from stns_ros.params import declare
 from stns_ros.recording import TopicRecorder
-from stns_ros.runtime import spin
+from stns_ros.runtime import run_node
 
 
 class RecorderNode(Node):
@@ -57,20 +52,7 @@ class RecorderNode(Node):
 
 
 def main(args=None) -> None:
-    rclpy.init(args=args)
-    node = None
-    try:
-        node = RecorderNode()
-        spin(node)
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
-    except (StnsRosError, ParameterException) as e:
-        sys.exit(f"stns_recorder: {e}")
-    finally:
-        if node is not None:
-            node.close()
-            node.destroy_node()
-        rclpy.try_shutdown()
+    run_node("stns_recorder", RecorderNode, args)
 
 
 if __name__ == "__main__":

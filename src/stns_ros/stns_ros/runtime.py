@@ -8,11 +8,15 @@ SingleThreadedExecutor, which matters in lockstep where every tick is a DDS roun
 from __future__ import annotations
 
 import os
+import sys
 from collections.abc import Callable
 
 import rclpy
-from rclpy.executors import SingleThreadedExecutor
+from rclpy.exceptions import ParameterException
+from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
+
+from stns_ros.errors import StnsRosError
 
 EXECUTORS = ("events", "single")
 
@@ -37,3 +41,27 @@ def spin(node: Node, done: Callable[[], bool] = lambda: False) -> None:
             executor.spin_once(timeout_sec=0.2)
     finally:
         executor.remove_node(node)
+
+
+def run_node(name: str, make_node: Callable[[], Node], args: list[str] | None = None,
+             done: Callable[[Node], bool] = lambda node: False) -> None:
+    """The ``main`` of every node: init, spin until Ctrl-C/SIGTERM or ``done``, clean up.
+
+    A configuration error (bad parameter, bad scenario) exits with its message, no traceback.
+    """
+    rclpy.init(args=args)
+    node = None
+    try:
+        node = make_node()
+        spin(node, lambda: done(node))
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass
+    except (StnsRosError, ParameterException) as e:
+        sys.exit(f"{name}: {e}")
+    finally:
+        if node is not None:
+            close = getattr(node, "close", None)
+            if close is not None:
+                close()
+            node.destroy_node()
+        rclpy.try_shutdown()

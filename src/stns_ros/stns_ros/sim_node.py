@@ -14,14 +14,10 @@ from __future__ import annotations
 
 import json
 import math
-import sys
 
-import rclpy
 from geometry_msgs.msg import PointStamped, TwistStamped, Vector3Stamped
 from nav_msgs.msg import Odometry
 from rclpy.clock import Clock, ClockType
-from rclpy.exceptions import ParameterException
-from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 from rclpy.qos import QoSProfile, ReliabilityPolicy
@@ -35,7 +31,7 @@ from stns_ros.conversion import UNIT_M, m_to_u, set_stamp, stamp_ns, tick_ns, ya
 from stns_ros.errors import StnsRosError
 from stns_ros.params import FAULT_PARAMS, check_choice, check_fault, declare, result
 from stns_ros.recording import LATCHED_QOS, TopicRecorder
-from stns_ros.runtime import spin
+from stns_ros.runtime import run_node
 
 MODES = ("lockstep", "free_running")
 FRAME_QOS = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE)
@@ -291,20 +287,7 @@ class RoverSimNode(Node):
 
 
 def main(args=None) -> None:
-    rclpy.init(args=args)
-    node = None
-    try:
-        node = RoverSimNode()
-        spin(node)
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
-    except (StnsRosError, ParameterException) as e:
-        sys.exit(f"rover_sim_node: {e}")
-    finally:
-        if node is not None:
-            node.close()
-            node.destroy_node()
-        rclpy.try_shutdown()
+    run_node("rover_sim_node", RoverSimNode, args)
 
 
 if __name__ == "__main__":
