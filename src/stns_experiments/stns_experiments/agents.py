@@ -8,31 +8,16 @@ with the StepRecord fields, so the same tick loop and the same metrics serve eve
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 
 import numpy as np
+
+from stns_core import StepRecord
 
 N_BEHAVIOURS = 4
 
 
-@dataclass(frozen=True)
-class Record:
-    """One behaviour step, with the fields of stns_core.StepRecord."""
-
-    index: int
-    x: np.ndarray
-    situation: int
-    kind: str
-    behaviour: int | None
-    target: int | None
-    planned: bool
-    reward: float
-    next_situation: int | None
-    success: bool | None
-    ticks: int
-    arrival: bool
-    trial: int
-
+# The baselines record exactly what the learner records, so one set of metrics serves all.
+Record = StepRecord
 
 class _BehaviourAgent:
     """Common machinery: run one behaviour until a stop condition, record each step."""
