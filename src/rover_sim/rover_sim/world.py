@@ -31,7 +31,14 @@ import pybullet
 
 from rover_sim import bodies
 from rover_sim.client import DirectClient
-from rover_sim.config import FAULT_NAMES, UNIT_M, Action, WorldConfig, validate_fault
+from rover_sim.config import (
+    FAULT_NAMES,
+    UNIT_M,
+    Action,
+    WorldConfig,
+    _finite,
+    validate_fault,
+)
 from rover_sim.errors import RoverSimError
 from rover_sim.geometry import (
     Pose,
@@ -452,15 +459,9 @@ def _as_action(action: Any) -> Action:
 
 
 def _finite_number(name: str, value: Any) -> float:
-    if isinstance(value, bool):
+    if isinstance(value, bool):  # a command, unlike a config field, is never a flag
         raise RoverSimError(f"{name} must be a number, got {value!r}")
-    try:
-        f = float(value)
-    except (TypeError, ValueError):
-        raise RoverSimError(f"{name} must be a number, got {value!r}") from None
-    if not math.isfinite(f):
-        raise RoverSimError(f"{name} must be finite, got {value!r}")
-    return f
+    return _finite(name, value)
 
 
 def _finite_tuple(name: str, value: Any, n: int) -> tuple[float, ...]:

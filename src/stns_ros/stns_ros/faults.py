@@ -175,15 +175,19 @@ def parse_scenario(data: Any, source: str = "") -> FaultScenario:
 def load_scenario(path: str | Path) -> FaultScenario:
     """Read and validate a scenario YAML file."""
     p = Path(path)
+    return parse_scenario(read_yaml(p, "fault scenario"), str(p))
+
+
+def read_yaml(path: Path, what: str) -> Any:
+    """Parse a YAML file; an unreadable file or bad YAML is a StnsRosError naming it."""
     try:
-        text = p.read_text()
+        text = path.read_text()
     except OSError as e:
-        raise StnsRosError(f"cannot read fault scenario {str(p)!r}: {e.strerror}") from None
+        raise StnsRosError(f"cannot read {what} {str(path)!r}: {e.strerror}") from None
     try:
-        data = yaml.safe_load(text)
+        return yaml.safe_load(text)
     except yaml.YAMLError as e:
-        raise StnsRosError(f"{p}: not valid YAML: {e}") from None
-    return parse_scenario(data, str(p))
+        raise StnsRosError(f"{path}: not valid YAML: {e}") from None
 
 
 def ramp_points(start: dict[str, float], event: FaultEvent, t0: float) -> list[tuple[float, dict[str, float]]]:

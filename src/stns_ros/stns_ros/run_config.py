@@ -25,7 +25,7 @@ import yaml
 
 from stns_ros.driver import seeds_from_run_seed
 from stns_ros.errors import StnsRosError
-from stns_ros.faults import FaultScenario, load_scenario, parse_scenario
+from stns_ros.faults import FaultScenario, load_scenario, parse_scenario, read_yaml
 from stns_ros.params import FAULT_PARAMS, check_fault
 
 SCHEMA: dict[str, dict[str, Any]] = {
@@ -154,15 +154,7 @@ def _check_library_configs(world: dict, learner: dict) -> None:
 
 def load_run_config(path: str | Path) -> dict[str, Any]:
     p = Path(path)
-    try:
-        text = p.read_text()
-    except OSError as e:
-        raise StnsRosError(f"cannot read run config {str(p)!r}: {e.strerror}") from None
-    try:
-        data = yaml.safe_load(text)
-    except yaml.YAMLError as e:
-        raise StnsRosError(f"{p}: not valid YAML: {e}") from None
-    return parse_run_config(data, str(p), p.resolve().parent)
+    return parse_run_config(read_yaml(p, "run config"), str(p), p.resolve().parent)
 
 
 def load_node_params(path: str | Path) -> dict[str, dict[str, Any]]:

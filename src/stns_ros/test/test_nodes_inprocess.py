@@ -101,10 +101,7 @@ def test_agent_answers_a_frame_and_its_watchdog_stops_the_rover(rclpy_context):
     ex.add_node(agent)
     ex.add_node(probe)
     try:
-        for _ in range(200):  # discovery, up to 10 s on a loaded machine
-            if agent.pub_cmd.get_subscription_count() > 0:
-                break
-            ex.spin_once(timeout_sec=0.05)
+        _wait_for_subscriber(ex, agent.pub_cmd)
         goal = PointStamped()
         goal.header.stamp.sec = 3
         goal.point.x, goal.point.y = 1.0, -0.5
@@ -143,10 +140,7 @@ def test_agent_rejects_a_frame_with_nan_and_stops_the_rover(rclpy_context):
     ex.add_node(agent)
     ex.add_node(probe)
     try:
-        for _ in range(200):  # discovery, up to 10 s on a loaded machine
-            if agent.pub_cmd.get_subscription_count() > 0:
-                break
-            ex.spin_once(timeout_sec=0.05)
+        _wait_for_subscriber(ex, agent.pub_cmd)
 
         def frame(sec: int, x: float) -> None:
             goal = PointStamped()
@@ -175,3 +169,10 @@ def test_agent_rejects_a_frame_with_nan_and_stops_the_rover(rclpy_context):
         agent.close()
         agent.destroy_node()
         probe.destroy_node()
+
+
+def _wait_for_subscriber(ex, publisher) -> None:
+    for _ in range(200):  # discovery, up to 10 s on a loaded machine
+        if publisher.get_subscription_count() > 0:
+            return
+        ex.spin_once(timeout_sec=0.05)
