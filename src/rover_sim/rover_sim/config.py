@@ -23,6 +23,7 @@ UNIT_M: float = 0.0625
 
 TASKS: tuple[str, ...] = ("exp1", "exp3")
 POST_COLLISION_RULES: tuple[str, ...] = ("replace", "undo", "stay", "back_off")
+COMMAND_RESPONSES: tuple[str, ...] = ("dynamic", "immediate")
 FAULT_NAMES: tuple[str, ...] = (
     "goal_sensor_rotation_deg",
     "left_wheel_gain",
@@ -130,8 +131,9 @@ class WorldConfig:
     """Append the six sector ranges to the observation (8-D input)."""
     tick_seconds: float = 0.1
     """Sim time of one control tick, s."""
-    physics_substeps: int = 1
-    """pybullet steps per control tick (1 tracks the commanded speeds to 0.5 %)."""
+    physics_substeps: int = 4
+    """pybullet steps per control tick (4: 25 ms; with 1 the body hops when a command
+    changes)."""
     solver_iterations: int = 20
     """pybullet constraint-solver iterations per physics step."""
     forward_speed: float = 20.0
@@ -140,6 +142,13 @@ class WorldConfig:
     """Turn rate of the rotation actions, deg/s (5 deg per 0.1 s tick)."""
     max_rotation_deg: float = 90.0
     """One continuous rotation beyond this angle is penalised (-1)."""
+    command_response: str = "immediate"
+    """How the rover takes a new command: "dynamic" (the wheel motors accelerate the body
+    through the contacts: after a rotation the heading runs on about 4.5 deg into the next
+    behaviour), "immediate" (at each change of the commanded body velocity, the body and
+    wheel velocities are set to the new command, as an ideal differential drive; give it
+    physics_substeps >= 2, else the coarse step makes the body hop). The paper gives no
+    dynamics (section 7.1); its rover turns and drives as commanded."""
     post_collision: str = "replace"
     """After a collision: "replace" (new random pose), "undo" (back to the pose where the
     current motion began, i.e. the colliding behaviour is undone), "stay" (the wall stops
@@ -198,6 +207,11 @@ class WorldConfig:
             raise RoverSimError(
                 f"the rover ({self.rover_length} x {self.rover_width}) does not fit "
                 f"the room {self.room_size!r}"
+            )
+        if self.command_response not in COMMAND_RESPONSES:
+            raise RoverSimError(
+                f"unknown command_response {self.command_response!r}; "
+                f"known: {', '.join(COMMAND_RESPONSES)}"
             )
         if self.post_collision not in POST_COLLISION_RULES:
             raise RoverSimError(

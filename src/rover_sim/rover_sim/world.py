@@ -374,6 +374,8 @@ class RoverWorld:
         left = (v_m - w * half_track) / bodies.WHEEL_RADIUS_M * self._faults["left_wheel_gain"]
         right = (v_m + w * half_track) / bodies.WHEEL_RADIUS_M
         if self._motor_cmd != (left, right):
+            if self._config.command_response == "immediate":
+                self._take_command(left, right)
             self._client.setJointMotorControlArray(
                 self._scene.rover,
                 [bodies.LEFT_WHEEL, bodies.RIGHT_WHEEL],
@@ -382,6 +384,18 @@ class RoverWorld:
                 forces=[bodies.MOTOR_FORCE, bodies.MOTOR_FORCE],
             )
             self._motor_cmd = (left, right)
+
+    def _take_command(self, left: float, right: float) -> None:
+        """command_response="immediate": body and wheels move at the new wheel speeds (the
+        left-wheel fault included) at once, as an ideal differential drive."""
+        c, rover = self._client, self._scene.rover
+        r = bodies.WHEEL_RADIUS_M
+        v_m = (left + right) * r / 2.0
+        w = (right - left) * r / bodies.TRACK_M
+        th = self._pose[2]
+        c.resetBaseVelocity(rover, [v_m * math.cos(th), v_m * math.sin(th), 0.0], [0.0, 0.0, w])
+        for joint, speed in ((bodies.LEFT_WHEEL, left), (bodies.RIGHT_WHEEL, right)):
+            c.resetJointState(rover, joint, c.getJointState(rover, joint)[0], speed)
 
     def _read_pose(self) -> None:
         pos, quat = self._client.getBasePositionAndOrientation(self._scene.rover)
@@ -397,6 +411,7 @@ class RoverWorld:
         self._read_pose()
         self._depths = penetration_depths(self._pose, self._config)
         self._segment_cmd = None
+        self._motor_cmd = None  # the wheels stand still now: the next command is new
 
     def _place(self, pose: Pose) -> None:
         x, y, th = pose

@@ -61,6 +61,7 @@ def test_unknown_task_names(name):
         ("tick_seconds", float("nan"), "tick_seconds must be finite, got nan"),
         ("physics_substeps", 0, "physics_substeps must be an integer >= 1, got 0"),
         ("post_collision", "bounce", "unknown post_collision rule 'bounce'"),
+        ("command_response", "instant", "unknown command_response 'instant'"),
         ("left_wheel_gain", 2.5, r"left_wheel_gain must be in \(0, 2\], got 2.5"),
         ("left_wheel_gain", 0.0, r"left_wheel_gain must be in \(0, 2\], got 0.0"),
         ("goal_sensor_noise_std", -1.0, "goal_sensor_noise_std must be >= 0, got -1.0"),

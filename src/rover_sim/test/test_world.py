@@ -161,3 +161,28 @@ def test_close_twice_and_use_after_close():
     world.close()
     with pytest.raises(RoverSimError, match="closed"):
         world.step(Action.FORWARD)
+
+
+@pytest.mark.parametrize("response,substeps", [("dynamic", 1), ("immediate", 4)])
+def test_heading_after_a_rotation_follows_the_command_response(make_world, response, substeps):
+    """A rotation's momentum carries into the next behaviour under "dynamic" (about 4.5 deg);
+    "immediate" sets the new velocities at the command change, so the heading holds."""
+    world = make_world(command_response=response, physics_substeps=substeps)
+    world.reset(options={"goal": (90.0, 90.0), "pose": (50.0, 50.0, 0.0)})
+    turned = _heading_change(world, 6, Action.CLOCKWISE)
+    carried = _heading_change(world, 6, Action.FORWARD)
+    if response == "immediate":
+        assert turned == pytest.approx(math.radians(-30.0), abs=math.radians(0.1))
+        assert abs(carried) < math.radians(0.5)
+    else:
+        assert turned > math.radians(-29.0)  # the turn starts with a lag
+        assert carried < math.radians(-3.0)  # and runs on into the drive
+
+
+def test_immediate_response_keeps_the_left_wheel_fault(make_world):
+    world = make_world(command_response="immediate", physics_substeps=4)
+    world.reset(options={"goal": (90.0, 90.0), "pose": (20.0, 50.0, 0.0)})
+    world.set_fault("left_wheel_gain", 0.85)
+    turn = _heading_change(world, 10)
+    # ideal drive: w = (right - left) r / track = 0.15 * 1.25 m/s / 0.6 m = 0.3125 rad/s
+    assert turn == pytest.approx(0.3125 * 1.0, rel=0.05)
