@@ -203,17 +203,26 @@ class StnsAgent:
         if r != 0.0:
             return x, s_now
         if run.planned and run.target is not None and run.target != GOAL:
-            lookahead = cfg.target_lookahead_ticks
-            if run.la_count >= 0:  # inside the target, looking ahead
-                if s_now != run.target:
+            if cfg.target_stop == "deepest":
+                if run.la_count >= 0 and s_now != run.target:
                     return x, s_now  # left it after all: the step ends where it is
-                run.la_count += 1
-                if run.la_count >= lookahead or not self._stays(run, x):
-                    return x, s_now
-            elif s_now == run.target:
-                if lookahead == 0 or not self._stays(run, x):
-                    return x, s_now
-                run.la_count = 0
+                if s_now == run.target:
+                    run.la_count += 1  # -1 (not yet inside) -> 0, 1, ...
+                    cap = cfg.target_lookahead_ticks  # 0: no cap
+                    if (cap and run.la_count >= cap) or not self._deeper(run, x):
+                        return x, s_now
+            else:
+                lookahead = cfg.target_lookahead_ticks
+                if run.la_count >= 0:  # inside the target, looking ahead
+                    if s_now != run.target:
+                        return x, s_now  # left it after all: the step ends where it is
+                    run.la_count += 1
+                    if run.la_count >= lookahead or not self._stays(run, x):
+                        return x, s_now
+                elif s_now == run.target:
+                    if lookahead == 0 or not self._stays(run, x):
+                        return x, s_now
+                    run.la_count = 0
         elif (not run.planned and cfg.random_stop == "situation_change"
               and s_now != run.s0):
             return x, s_now
@@ -248,6 +257,19 @@ class StnsAgent:
         """One tick of look-ahead: is the input extrapolated one tick on still in the target?"""
         prev = run.x0 if run.prev_x is None else run.prev_x
         return self.learner.classify(2.0 * x - prev) == run.target
+
+    def _deeper(self, run: _Running, x: np.ndarray) -> bool:
+        """Option target_stop="deepest": would the next tick (extrapolated one tick on) still
+        be classified into the target and lie nearer its centre (Mahalanobis) than ``x``?"""
+        sit = self.learner.by_id.get(run.target)
+        if sit is None:  # the margin (situation 0) has no centre
+            return False
+        prev = run.x0 if run.prev_x is None else run.prev_x
+        nxt = 2.0 * x - prev
+        if self.learner.classify(nxt) != run.target:
+            return False
+        d2 = sit.mahalanobis2(np.stack([x, nxt]))
+        return bool(d2[1] < d2[0])
 
     def _kind(self, sid: int) -> str:
         sit = self.learner.by_id.get(sid)

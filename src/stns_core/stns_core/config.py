@@ -23,6 +23,7 @@ BOUNDARY_REFITS = ("every_step", "interval")
 RELABELS = ("after_modification", "never")
 EXPLORATIONS = ("uniform", "greedy_goal")
 SHAPE_SCOPES = ("all", "t_only")
+TARGET_STOPS = ("first", "deepest")
 
 _PRESETS: dict[str, dict[str, Any]] = {
     # Paper section 7.1 (Exp. 1 and, from a saved learner, Exp. 2).
@@ -60,6 +61,7 @@ class StnsConfig:
     majority: str = "strict"
     boundary_refit: str = "every_step"
     target_lookahead_ticks: int = 0
+    target_stop: str = "first"
     relabel: str = "after_modification"
     iprl_memo: bool = True
     cov_reg: float = 1e-3
@@ -133,6 +135,7 @@ class StnsConfig:
             "planner": PLANNERS, "random_stop": RANDOM_STOPS, "majority": MAJORITIES,
             "boundary_refit": BOUNDARY_REFITS, "relabel": RELABELS,
             "exploration": EXPLORATIONS, "shape_scope": SHAPE_SCOPES,
+            "target_stop": TARGET_STOPS,
         }
         for name, allowed in choices.items():
             value = getattr(self, name)

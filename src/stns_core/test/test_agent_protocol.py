@@ -7,6 +7,7 @@ from conftest import ring
 from stns_core import (
     StnsAgent,
     StnsConfig,
+    StnsConfigError,
     StnsDimensionError,
     StnsError,
     StnsInputError,
@@ -121,6 +122,46 @@ def test_lookahead_leaving_the_target_after_all_is_recorded_honestly():
     h = agent.learner.hist
     slot = (h.head - 1) % h.capacity
     assert np.array_equal(h.x_next[slot], out)
+
+
+def _run_through_target(agent, xs):
+    """Feed a straight run of inputs; return the record that closed first."""
+    for x in xs:
+        agent.step(np.array([x, 0.0]), 0.0, False)
+        recs = agent.pop_records()
+        if recs:
+            return recs[0]
+    pytest.fail("never stopped")
+
+
+RUN_THROUGH_R = [2.5 - 0.3 * k for k in range(12)]  # 2.5 (margin), 2.2 (R boundary), ... -0.8
+
+
+@pytest.mark.parametrize("stop,cap,end,ticks", [
+    ("first", 0, 1.9, 2),       # faithful: the first tick classified into the target
+    ("deepest", 0, 0.1, 8),     # on while the next tick would be nearer the centre
+    ("deepest", 2, 1.3, 4),     # at most 2 ticks more inside
+])
+def test_target_stop_reading(stop, cap, end, ticks):
+    agent, rid = trained_agent(target_stop=stop, target_lookahead_ticks=cap)
+    h = agent.learner.hist
+    assert agent.learner.classify(np.array([2.2, 0.0])) == 0  # R's boundary lies within 2.2
+    rec = _run_through_target(agent, RUN_THROUGH_R)
+    assert rec.success is True and rec.next_situation == rid and rec.ticks == ticks
+    assert h.x_next[(h.head - 1) % h.capacity][0] == pytest.approx(end)
+
+
+def test_target_stop_deepest_into_the_margin_stops_at_once():
+    agent, rid = trained_agent(target_stop="deepest")
+    agent.step(np.array([0.5, 0.0]), 0.0, False)
+    agent._run.planned, agent._run.target = True, 0  # (a plan may target the margin)
+    rec = _run_through_target(agent, [9.0, 8.0])
+    assert rec.ticks == 1 and rec.success is True and rec.next_situation == 0
+
+
+def test_target_stop_deepest_bad_value():
+    with pytest.raises(StnsConfigError, match="target_stop must be one of"):
+        StnsConfig(target_stop="centre")
 
 
 def test_max_behaviour_ticks():
