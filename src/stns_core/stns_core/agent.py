@@ -203,6 +203,9 @@ class StnsAgent:
         if r != 0.0:
             return x, s_now
         if run.planned and run.target is not None and run.target != GOAL:
+            if (cfg.plan_stop == "higher_utility" and run.la_count < 0
+                    and s_now not in (0, run.s0, run.target) and self._better(s_now, run.target)):
+                return x, s_now
             if cfg.target_stop == "deepest":
                 if run.la_count >= 0 and s_now != run.target:
                     return x, s_now  # left it after all: the step ends where it is
@@ -257,6 +260,13 @@ class StnsAgent:
         """One tick of look-ahead: is the input extrapolated one tick on still in the target?"""
         prev = run.x0 if run.prev_x is None else run.prev_x
         return self.learner.classify(2.0 * x - prev) == run.target
+
+    def _better(self, sid: int, target: int) -> bool:
+        """Option plan_stop="higher_utility": is situation ``sid`` of higher utility (as of
+        the last re-ordering) than the running behaviour's target?"""
+        ids = self.learner.by_id
+        target_u = ids[target].utility if target in ids else 0.0
+        return ids[sid].utility > target_u
 
     def _deeper(self, run: _Running, x: np.ndarray) -> bool:
         """Option target_stop="deepest": would the next tick (extrapolated one tick on) still

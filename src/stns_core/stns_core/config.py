@@ -24,6 +24,7 @@ RELABELS = ("after_modification", "never")
 EXPLORATIONS = ("uniform", "greedy_goal")
 SHAPE_SCOPES = ("all", "t_only")
 TARGET_STOPS = ("first", "deepest")
+PLAN_STOPS = ("target", "higher_utility")
 
 _PRESETS: dict[str, dict[str, Any]] = {
     # Paper section 7.1 (Exp. 1 and, from a saved learner, Exp. 2).
@@ -62,6 +63,7 @@ class StnsConfig:
     boundary_refit: str = "every_step"
     target_lookahead_ticks: int = 0
     target_stop: str = "first"
+    plan_stop: str = "target"
     relabel: str = "after_modification"
     iprl_memo: bool = True
     cov_reg: float = 1e-3
@@ -135,7 +137,7 @@ class StnsConfig:
             "planner": PLANNERS, "random_stop": RANDOM_STOPS, "majority": MAJORITIES,
             "boundary_refit": BOUNDARY_REFITS, "relabel": RELABELS,
             "exploration": EXPLORATIONS, "shape_scope": SHAPE_SCOPES,
-            "target_stop": TARGET_STOPS,
+            "target_stop": TARGET_STOPS, "plan_stop": PLAN_STOPS,
         }
         for name, allowed in choices.items():
             value = getattr(self, name)

@@ -159,6 +159,26 @@ def test_target_stop_deepest_into_the_margin_stops_at_once():
     assert rec.ticks == 1 and rec.success is True and rec.next_situation == 0
 
 
+@pytest.mark.parametrize("plan_stop,stops", [("target", False), ("higher_utility", True)])
+def test_plan_stop_reading(plan_stop, stops):
+    agent, rid = trained_agent(plan_stop=plan_stop)
+    lr = agent.learner
+    inside = np.array([0.5, 0.0])
+    for k in range(6):  # a T-situation (behaviour 2 -> R) around FAR
+        x = FAR + [0.0, 0.5 * k]
+        lr.add_record(x, lr.classify(x), 2, 0.0, inside, lr.classify(inside), False)
+    tid = next(s.id for s in lr.order if s.kind == "T")
+    lr.by_id[rid].utility, lr.by_id[tid].utility = 7.0, 4.9
+    agent.step(np.array([10.0, 10.0]), 0.0, False)
+    agent._run.planned, agent._run.target = True, tid  # heading for T, passing through R
+    agent.step(np.array([0.4, 0.0]), 0.0, False)
+    recs = agent.pop_records()
+    if stops:
+        assert len(recs) == 1 and recs[0].next_situation == rid and recs[0].success is False
+    else:
+        assert recs == [] and agent._run.target == tid
+
+
 def test_target_stop_deepest_bad_value():
     with pytest.raises(StnsConfigError, match="target_stop must be one of"):
         StnsConfig(target_stop="centre")
