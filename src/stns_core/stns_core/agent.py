@@ -203,29 +203,8 @@ class StnsAgent:
         if r != 0.0:
             return x, s_now
         if run.planned and run.target is not None and run.target != GOAL:
-            if (cfg.plan_stop == "higher_utility" and run.la_count < 0
-                    and s_now not in (0, run.s0, run.target) and self._better(s_now, run.target)):
+            if self._planned_stop(run, x, s_now):
                 return x, s_now
-            if cfg.target_stop == "deepest":
-                if run.la_count >= 0 and s_now != run.target:
-                    return x, s_now  # left it after all: the step ends where it is
-                if s_now == run.target:
-                    run.la_count += 1  # -1 (not yet inside) -> 0, 1, ...
-                    cap = cfg.target_lookahead_ticks  # 0: no cap
-                    if (cap and run.la_count >= cap) or not self._deeper(run, x):
-                        return x, s_now
-            else:
-                lookahead = cfg.target_lookahead_ticks
-                if run.la_count >= 0:  # inside the target, looking ahead
-                    if s_now != run.target:
-                        return x, s_now  # left it after all: the step ends where it is
-                    run.la_count += 1
-                    if run.la_count >= lookahead or not self._stays(run, x):
-                        return x, s_now
-                elif s_now == run.target:
-                    if lookahead == 0 or not self._stays(run, x):
-                        return x, s_now
-                    run.la_count = 0
         elif (not run.planned and cfg.random_stop == "situation_change"
               and s_now != run.s0):
             return x, s_now
@@ -260,6 +239,24 @@ class StnsAgent:
         """One tick of look-ahead: is the input extrapolated one tick on still in the target?"""
         prev = run.x0 if run.prev_x is None else run.prev_x
         return self.learner.classify(2.0 * x - prev) == run.target
+
+    def _planned_stop(self, run: _Running, x: np.ndarray, s_now: int) -> bool:
+        """Does a planned behaviour with a situation as target stop at this tick? The paper's
+        rule (the first tick in the target) and the readings ``target_lookahead_ticks``,
+        ``target_stop`` and ``plan_stop`` (algorithm.md, "Readings")."""
+        cfg = self.config
+        if run.la_count >= 0 and s_now != run.target:
+            return True  # went on inside the target, then left it: the step ends here
+        if (cfg.plan_stop == "higher_utility" and run.la_count < 0
+                and s_now not in (0, run.s0, run.target) and self._better(s_now, run.target)):
+            return True
+        if s_now != run.target:
+            return False
+        run.la_count += 1  # ticks spent inside the target: 0 at the first
+        cap = cfg.target_lookahead_ticks
+        if cfg.target_stop == "deepest":  # cap 0: no cap
+            return bool(cap and run.la_count >= cap) or not self._deeper(run, x)
+        return run.la_count >= cap or not self._stays(run, x)
 
     def _better(self, sid: int, target: int) -> bool:
         """Option plan_stop="higher_utility": is situation ``sid`` of higher utility (as of
