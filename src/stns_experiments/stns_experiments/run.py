@@ -353,7 +353,9 @@ def run_exp2(run: Run) -> dict:
                    "hi": k["behaviours_to_goal_by_block_q75"], "style": "-" if i == 0 else "--"}
                   for i, k in enumerate((e.get("relearn"), e.get("scratch"))) if k]
         if series:
-            panels.append({"title": f"{ln}: delay {e.get('delay_steps')} steps, "
+            delay = e.get("delay_steps")
+            delay_text = "not reached" if delay is None else f"{delay} steps"
+            panels.append({"title": f"{ln}: delay {delay_text}, "
                                     f"eliminated {e.get('eliminated_after_fault_mean', 0):.1f}",
                            "series": series, "level": base_final})
     if panels:
