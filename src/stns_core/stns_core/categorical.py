@@ -30,6 +30,9 @@ class Learner:
 
     def __init__(self, cfg: StnsConfig, dim: int, n_behaviours: int) -> None:
         self.cfg = cfg
+        # option t_result="unpunished": a penalised step reaches no situation (T-extraction,
+        # T-positives, recycling); the STN keeps every record as it is
+        self._unpunished = cfg.t_result == "unpunished"
         self.dim = dim
         self.n_behaviours = n_behaviours
         self.hist = History(cfg.history_size, dim)
@@ -145,7 +148,7 @@ class Learner:
             h.s_next[idx] = MARGIN
         for sit in self.order:
             if sit.kind == T_KIND:
-                new = sit.positive_mask(h, self.cfg.r_min_r)
+                new = sit.positive_mask(h, self.cfg.r_min_r, self._unpunished)
                 if not np.array_equal(new, sit.pos):
                     sit.pos = new
                     sit.neg &= ~new
@@ -168,12 +171,12 @@ class Learner:
                 sit.nn_dirty = True
         if b >= 0:  # operation 1
             for sit in self.order:
-                if sit.result_met(b, reward, s_next, terminal, cfg.r_min_r):
+                if sit.result_met(b, reward, s_next, terminal, cfg.r_min_r, self._unpunished):
                     sit.pos[slot] = True
                     sit.shape_dirty = sit.nn_dirty = True
             own = self.by_id.get(s)
             if own is not None and own.behaviour == b and not own.result_met(
-                    b, reward, s_next, terminal, cfg.r_min_r):
+                    b, reward, s_next, terminal, cfg.r_min_r, self._unpunished):
                 own.neg[slot] = True
                 own.nn_dirty = True
         self._version += 1
@@ -225,6 +228,8 @@ class Learner:
         lut = self.lut()
         n_nodes = len(self.order) + 2
         sel = beh & ~big & ~h.terminal & (lut[h.s] == 0)
+        if self._unpunished:
+            sel &= h.reward >= 0.0
         sn = lut[h.s_next[sel]]
         keep = sn != 0
         if not keep.any():
@@ -249,7 +254,7 @@ class Learner:
         sit = Situation(self.next_id, kind, b, h.capacity, h.dim, parent=parent,
                         reward_key=key, created=h.total)
         self.next_id += 1
-        sit.pos = sit.positive_mask(h, self.cfg.r_min_r)
+        sit.pos = sit.positive_mask(h, self.cfg.r_min_r, self._unpunished)
         self._fit(sit)
         self.order.append(sit)  # bottom of the tree until the next re-ordering
         self.by_id[sit.id] = sit
@@ -267,7 +272,7 @@ class Learner:
             return
         h = self.hist
         idx = np.flatnonzero(h.valid & (h.b == sit.behaviour)
-                             & ~sit.positive_mask(h, self.cfg.r_min_r) & ~sit.pos)
+                             & ~sit.positive_mask(h, self.cfg.r_min_r, self._unpunished) & ~sit.pos)
         if len(idx) == 0:
             return
         inside = idx[self.classify_batch(h.x[idx]) == sit.id]
@@ -374,6 +379,8 @@ class Learner:
             return
         h = self.hist
         mask = h.valid & (h.b == b_new) & ~h.terminal & (h.s_next == parent.id)
+        if self._unpunished:
+            mask &= h.reward >= 0.0
         if int(mask.sum()) < cfg.n_init_t:
             self._eliminate(sit, reason + "; case 5: too few positive instances")
             return

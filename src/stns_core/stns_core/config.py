@@ -25,6 +25,7 @@ EXPLORATIONS = ("uniform", "greedy_goal")
 SHAPE_SCOPES = ("all", "t_only")
 TARGET_STOPS = ("first", "deepest")
 PLAN_STOPS = ("target", "higher_utility")
+T_RESULTS = ("reached", "unpunished")
 
 _PRESETS: dict[str, dict[str, Any]] = {
     # Paper section 7.1 (Exp. 1 and, from a saved learner, Exp. 2).
@@ -64,6 +65,7 @@ class StnsConfig:
     target_lookahead_ticks: int = 0
     target_stop: str = "first"
     plan_stop: str = "target"
+    t_result: str = "reached"
     relabel: str = "after_modification"
     iprl_memo: bool = True
     cov_reg: float = 1e-3
@@ -137,7 +139,7 @@ class StnsConfig:
             "planner": PLANNERS, "random_stop": RANDOM_STOPS, "majority": MAJORITIES,
             "boundary_refit": BOUNDARY_REFITS, "relabel": RELABELS,
             "exploration": EXPLORATIONS, "shape_scope": SHAPE_SCOPES,
-            "target_stop": TARGET_STOPS, "plan_stop": PLAN_STOPS,
+            "target_stop": TARGET_STOPS, "plan_stop": PLAN_STOPS, "t_result": T_RESULTS,
         }
         for name, allowed in choices.items():
             value = getattr(self, name)

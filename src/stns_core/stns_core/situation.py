@@ -70,20 +70,22 @@ class Situation:
         return (T_KIND, self.behaviour, self.parent)
 
     def result_met(self, b: int, reward: float, s_next: int, terminal: bool,
-                   r_min_r: float) -> bool:
-        """Did a behaviour step (b, reward, reached s_next) meet this situation's definition?"""
+                   r_min_r: float, unpunished: bool = False) -> bool:
+        """Did a behaviour step (b, reward, reached s_next) meet this situation's definition?
+        ``unpunished`` (option ``t_result="unpunished"``): a T-result also needs reward >= 0."""
         if b != self.behaviour:
             return False
         if self.kind == R_KIND:
             return reward > r_min_r and round(reward, 6) == self.reward_key
-        return (not terminal) and s_next == self.parent
+        return (not terminal) and s_next == self.parent and (not unpunished or reward >= 0.0)
 
-    def positive_mask(self, hist, r_min_r: float) -> np.ndarray:
+    def positive_mask(self, hist, r_min_r: float, unpunished: bool = False) -> np.ndarray:
         """All history records meeting the definition (extraction / redefinition / relabel)."""
         m = hist.valid & (hist.b == self.behaviour)
         if self.kind == R_KIND:
             return m & (hist.reward > r_min_r) & (np.round(hist.reward, 6) == self.reward_key)
-        return m & ~hist.terminal & (hist.s_next == self.parent)
+        m = m & ~hist.terminal & (hist.s_next == self.parent)
+        return m & (hist.reward >= 0.0) if unpunished else m
 
     @property
     def n_pos(self) -> int:

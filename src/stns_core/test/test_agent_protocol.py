@@ -7,7 +7,6 @@ from conftest import ring
 from stns_core import (
     StnsAgent,
     StnsConfig,
-    StnsConfigError,
     StnsDimensionError,
     StnsError,
     StnsInputError,
@@ -177,11 +176,6 @@ def test_plan_stop_reading(plan_stop, stops):
         assert len(recs) == 1 and recs[0].next_situation == rid and recs[0].success is False
     else:
         assert recs == [] and agent._run.target == tid
-
-
-def test_target_stop_deepest_bad_value():
-    with pytest.raises(StnsConfigError, match="target_stop must be one of"):
-        StnsConfig(target_stop="centre")
 
 
 def test_max_behaviour_ticks():

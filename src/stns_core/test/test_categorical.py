@@ -56,6 +56,28 @@ def test_t_extraction_fires_exactly_when_the_count_passes_n_init():
     assert lr.classify(FAR_PTS[0]) == t.id  # re-labelled: the region is now the T-situation
 
 
+def add_punished_move_record(lr, k, b=2, to=(0.5, 0.0)):
+    x = FAR_PTS[k % len(FAR_PTS)]
+    xn = np.array(to)
+    lr.add_record(x, lr.classify(x), b, -1.0, xn, lr.classify(xn), False)
+
+
+@pytest.mark.parametrize("t_result,extracted", [("reached", True), ("unpunished", False)])
+def test_t_result_reading_on_penalised_moves(t_result, extracted):
+    """A move that ended with a penalty (a collision; the world may then re-place the rover)
+    reaches a situation for the paper's reading, not for t_result="unpunished"."""
+    lr = make_learner(n_init_t=5, t_result=t_result)
+    for k in range(4):
+        add_goal_record(lr, k)
+    for k in range(6):
+        add_punished_move_record(lr, k)
+    assert (len(lr.order) == 2) == extracted
+    for k in range(6):
+        add_move_record(lr, 6 + k)
+    t = lr.order[1]
+    assert t.kind == "T" and t.n_pos == (12 if t_result == "reached" else 6)
+
+
 def test_t_extraction_counts_only_moves_from_situation_zero():
     lr = make_learner(n_init_t=5)
     for k in range(4):

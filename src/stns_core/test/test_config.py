@@ -49,6 +49,9 @@ def test_round_trip_and_replace():
     ("relabel", "always", "relabel must be one of"),
     ("target_lookahead_ticks", -1, "target_lookahead_ticks must be >= 0"),
     ("cov_reg", 0.0, "cov_reg must be > 0"),
+    ("target_stop", "centre", "target_stop must be one of"),
+    ("plan_stop", "any", "plan_stop must be one of"),
+    ("t_result", "any", "t_result must be one of"),
 ])
 def test_bad_values_raise_named_errors(key, value, match):
     with pytest.raises(StnsConfigError, match=match):
