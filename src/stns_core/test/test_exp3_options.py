@@ -262,7 +262,7 @@ def test_improved_exp3_yaml_is_the_preset_plus_greedy_exploration():
         "exp3", exploration="greedy_goal", greedy_prob=1.0, greedy_align_deg=5.0)
 
 
-def test_improved_exp1_yaml_is_the_preset_plus_the_two_stop_readings():
+def test_improved_exp1_yaml_is_the_preset_plus_the_three_readings():
     from pathlib import Path
 
     yaml = pytest.importorskip("yaml")
@@ -271,4 +271,5 @@ def test_improved_exp1_yaml_is_the_preset_plus_the_two_stop_readings():
         pytest.skip(f"{path} not in this checkout")
     params = yaml.safe_load(path.read_text())["/**"]["ros__parameters"]
     assert StnsConfig.from_dict(params) == StnsConfig.preset(
-        "exp1", target_stop="deepest", target_lookahead_ticks=1, plan_stop="higher_utility")
+        "exp1", target_stop="deepest", target_lookahead_ticks=1, plan_stop="higher_utility",
+        t_result="unpunished")
