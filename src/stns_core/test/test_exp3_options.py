@@ -250,26 +250,19 @@ def test_negatives_from_history_bite_a_new_situation_at_once():
     assert any(e["event"] == "negatives_seeded" for e in lrn.events)
 
 
-def test_improved_exp3_yaml_is_the_preset_plus_greedy_exploration():
+@pytest.mark.parametrize("name,preset,overrides", [
+    ("stns_exp3_improved.yaml", "exp3",
+     dict(exploration="greedy_goal", greedy_prob=1.0, greedy_align_deg=5.0)),
+    ("stns_exp1_improved.yaml", "exp1",
+     dict(target_stop="deepest", target_lookahead_ticks=1, plan_stop="higher_utility",
+          t_result="unpunished")),
+])
+def test_improved_yaml_files_are_the_preset_plus_their_options(name, preset, overrides):
     from pathlib import Path
 
     yaml = pytest.importorskip("yaml")
-    path = Path(__file__).resolve().parents[3] / "config" / "stns_exp3_improved.yaml"
+    path = Path(__file__).resolve().parents[3] / "config" / name
     if not path.exists():
         pytest.skip(f"{path} not in this checkout")
     params = yaml.safe_load(path.read_text())["/**"]["ros__parameters"]
-    assert StnsConfig.from_dict(params) == StnsConfig.preset(
-        "exp3", exploration="greedy_goal", greedy_prob=1.0, greedy_align_deg=5.0)
-
-
-def test_improved_exp1_yaml_is_the_preset_plus_the_three_readings():
-    from pathlib import Path
-
-    yaml = pytest.importorskip("yaml")
-    path = Path(__file__).resolve().parents[3] / "config" / "stns_exp1_improved.yaml"
-    if not path.exists():
-        pytest.skip(f"{path} not in this checkout")
-    params = yaml.safe_load(path.read_text())["/**"]["ros__parameters"]
-    assert StnsConfig.from_dict(params) == StnsConfig.preset(
-        "exp1", target_stop="deepest", target_lookahead_ticks=1, plan_stop="higher_utility",
-        t_result="unpunished")
+    assert StnsConfig.from_dict(params) == StnsConfig.preset(preset, **overrides)
