@@ -235,10 +235,15 @@ class StnsAgent:
             return greedy_behaviour(x, cfg.greedy_align_deg), True
         return int(self.rng.integers(self.n_behaviours)), False
 
+    @staticmethod
+    def _next_tick(run: _Running, x: np.ndarray) -> np.ndarray:
+        """The input extrapolated one tick on (``2 x_t - x_(t-1)``)."""
+        prev = run.x0 if run.prev_x is None else run.prev_x
+        return 2.0 * x - prev
+
     def _stays(self, run: _Running, x: np.ndarray) -> bool:
         """One tick of look-ahead: is the input extrapolated one tick on still in the target?"""
-        prev = run.x0 if run.prev_x is None else run.prev_x
-        return self.learner.classify(2.0 * x - prev) == run.target
+        return self.learner.classify(self._next_tick(run, x)) == run.target
 
     def _planned_stop(self, run: _Running, x: np.ndarray, s_now: int) -> bool:
         """Does a planned behaviour with a situation as target stop at this tick? The paper's
@@ -271,8 +276,7 @@ class StnsAgent:
         sit = self.learner.by_id.get(run.target)
         if sit is None:  # the margin (situation 0) has no centre
             return False
-        prev = run.x0 if run.prev_x is None else run.prev_x
-        nxt = 2.0 * x - prev
+        nxt = self._next_tick(run, x)
         if self.learner.classify(nxt) != run.target:
             return False
         d2 = sit.mahalanobis2(np.stack([x, nxt]))

@@ -19,7 +19,7 @@ from .classifier import MARGIN, Classifier
 from .config import StnsConfig
 from .history import History
 from .planning import Iprl, Pia
-from .situation import R_KIND, T_KIND, Situation
+from .situation import R_KIND, T_KIND, Situation, t_result_mask
 from .stn import Stn
 
 GOAL = -1  # target id of a plan element whose result is the goal reward
@@ -148,13 +148,19 @@ class Learner:
             h.s_next[idx] = MARGIN
         for sit in self.order:
             if sit.kind == T_KIND:
-                new = sit.positive_mask(h, self.cfg.r_min_r, self._unpunished)
+                new = self._positive_mask(sit)
                 if not np.array_equal(new, sit.pos):
                     sit.pos = new
                     sit.neg &= ~new
                     sit.shape_dirty = True
                     sit.nn_dirty = True
         self._version += 1
+
+    def _positive_mask(self, sit: Situation) -> np.ndarray:
+        return sit.positive_mask(self.hist, self.cfg.r_min_r, self._unpunished)
+
+    def _met(self, sit: Situation, b: int, reward: float, s_next: int, terminal: bool) -> bool:
+        return sit.result_met(b, reward, s_next, terminal, self.cfg.r_min_r, self._unpunished)
 
     # -- one behaviour step -----------------------------------------------------------
     def add_record(self, x, s: int, b: int, reward: float, x_next, s_next: int,
@@ -171,12 +177,12 @@ class Learner:
                 sit.nn_dirty = True
         if b >= 0:  # operation 1
             for sit in self.order:
-                if sit.result_met(b, reward, s_next, terminal, cfg.r_min_r, self._unpunished):
+                if self._met(sit, b, reward, s_next, terminal):
                     sit.pos[slot] = True
                     sit.shape_dirty = sit.nn_dirty = True
             own = self.by_id.get(s)
-            if own is not None and own.behaviour == b and not own.result_met(
-                    b, reward, s_next, terminal, cfg.r_min_r, self._unpunished):
+            if own is not None and own.behaviour == b and not self._met(
+                    own, b, reward, s_next, terminal):
                 own.neg[slot] = True
                 own.nn_dirty = True
         self._version += 1
@@ -254,7 +260,7 @@ class Learner:
         sit = Situation(self.next_id, kind, b, h.capacity, h.dim, parent=parent,
                         reward_key=key, created=h.total)
         self.next_id += 1
-        sit.pos = sit.positive_mask(h, self.cfg.r_min_r, self._unpunished)
+        sit.pos = self._positive_mask(sit)
         self._fit(sit)
         self.order.append(sit)  # bottom of the tree until the next re-ordering
         self.by_id[sit.id] = sit
@@ -272,7 +278,7 @@ class Learner:
             return
         h = self.hist
         idx = np.flatnonzero(h.valid & (h.b == sit.behaviour)
-                             & ~sit.positive_mask(h, self.cfg.r_min_r, self._unpunished) & ~sit.pos)
+                             & ~self._positive_mask(sit) & ~sit.pos)
         if len(idx) == 0:
             return
         inside = idx[self.classify_batch(h.x[idx]) == sit.id]
@@ -378,9 +384,7 @@ class Learner:
             self._eliminate(sit, reason + "; case 4: attributes already taken")
             return
         h = self.hist
-        mask = h.valid & (h.b == b_new) & ~h.terminal & (h.s_next == parent.id)
-        if self._unpunished:
-            mask &= h.reward >= 0.0
+        mask = t_result_mask(h, b_new, parent.id, self._unpunished)
         if int(mask.sum()) < cfg.n_init_t:
             self._eliminate(sit, reason + "; case 5: too few positive instances")
             return

@@ -38,6 +38,13 @@ def regularised_cov(points: np.ndarray, cov_reg: float, mean: np.ndarray | None 
     return cov
 
 
+def t_result_mask(hist, b: int, parent: int, unpunished: bool = False) -> np.ndarray:
+    """History records in which behaviour ``b`` reached situation ``parent`` (a T-result);
+    ``unpunished`` (option ``t_result="unpunished"``): only those without a penalty."""
+    m = hist.valid & (hist.b == b) & ~hist.terminal & (hist.s_next == parent)
+    return m & (hist.reward >= 0.0) if unpunished else m
+
+
 class Situation:
     """One situation: attributes, instance populations (masks over history slots), shape."""
 
@@ -81,11 +88,10 @@ class Situation:
 
     def positive_mask(self, hist, r_min_r: float, unpunished: bool = False) -> np.ndarray:
         """All history records meeting the definition (extraction / redefinition / relabel)."""
-        m = hist.valid & (hist.b == self.behaviour)
         if self.kind == R_KIND:
-            return m & (hist.reward > r_min_r) & (np.round(hist.reward, 6) == self.reward_key)
-        m = m & ~hist.terminal & (hist.s_next == self.parent)
-        return m & (hist.reward >= 0.0) if unpunished else m
+            return (hist.valid & (hist.b == self.behaviour) & (hist.reward > r_min_r)
+                    & (np.round(hist.reward, 6) == self.reward_key))
+        return t_result_mask(hist, self.behaviour, self.parent, unpunished)
 
     @property
     def n_pos(self) -> int:
