@@ -22,6 +22,7 @@ from .config import StnsConfig
 from .errors import StnsDimensionError, StnsError, StnsInputError
 from .history import ARRIVAL
 from .records import StepRecord
+from .situation import R_KIND
 
 PlanElems = list[tuple[int, int]]
 
@@ -319,6 +320,14 @@ class StnsAgent:
         self._plan = []
         self._prev_reached = None
 
+    def _plan_root(self, x: np.ndarray, s: int) -> int:
+        """The situation a new plan starts from: the current one (the paper), or under option
+        margin_plan="nearest_r", from the margin, the R-situation nearest to the input if it
+        lies within ``margin_plan_reach`` of its boundaries (algorithm.md, "Readings")."""
+        if s == 0 and self.config.margin_plan == "nearest_r":
+            return self.learner.nearest(x, self.config.margin_plan_reach, R_KIND)
+        return s
+
     def _plan_alive(self) -> bool:
         ids = self.learner.by_id
         return all(d in ids or d == GOAL or d == 0 for _, d in self._plan)
@@ -332,7 +341,7 @@ class StnsAgent:
             b, d = self._plan.pop(0)
             planned = True
         else:
-            u, plan = self.learner.plan(s)
+            u, plan = self.learner.plan(self._plan_root(x, s))
             self._plan_utility = u
             if u > 0.0 and plan:
                 (b, d), self._plan = plan[0], plan[1:]

@@ -56,6 +56,11 @@ class Learner:
     def classify(self, x: np.ndarray) -> int:
         return self.classifier.classify(x, self.hist.x)
 
+    def nearest(self, x: np.ndarray, reach: float, kind: str | None = None) -> int:
+        """Situation whose ellipsoid is nearest to ``x`` relative to its boundary, if within
+        ``reach`` boundaries; 0: none."""
+        return self.classifier.nearest(x, reach, kind)
+
     def classify_batch(self, xs: np.ndarray) -> np.ndarray:
         return self.classifier.classify_batch(xs, self.hist.x)
 
@@ -296,7 +301,7 @@ class Learner:
         if sit.n_pos < n_min:
             return "too_few_positives"
         if sit.kind == R_KIND:
-            return None
+            return "recent_failures" if self._broken(sit) is not None else None
         if sit.parent not in self.by_id:
             return "parent_eliminated"
         lut = self.lut()
@@ -326,6 +331,8 @@ class Learner:
             if sit.n_pos < (cfg.n_min_r if sit.kind == R_KIND else cfg.n_min_t):
                 return True
             if sit.kind == R_KIND:
+                if self._broken(sit) is not None:
+                    return True
                 continue
             if sit.parent not in self.by_id:
                 return True
@@ -357,7 +364,10 @@ class Learner:
     def _recycle(self, sit: Situation, reason: str, counts: np.ndarray) -> None:
         cfg = self.cfg
         if sit.kind == R_KIND:
+            since = self._broken(sit) if reason == "recent_failures" else None
             self._eliminate(sit, reason)  # R-situations are never recycled (algorithm.md)
+            if since is not None:
+                self._forget_before(sit, since)
             return
         lut = self.lut()
         row = counts[lut[sit.id]]
@@ -396,6 +406,52 @@ class Learner:
         self._event("redefined", sit, reason=reason, old_behaviour=old[0], old_parent=old[1])
         self._structure_changed()
         self._negatives_from_history(sit)
+
+    def _ages(self) -> np.ndarray:
+        """Age of each history slot in records (0 = the newest)."""
+        h = self.hist
+        return (h.head - 1 - np.arange(h.capacity)) % h.capacity
+
+    def _broken(self, sit: Situation) -> int | None:
+        """Option ``r_break_window`` W (not the paper's): an R-situation is broken when, of
+        the last W behaviours of its condition behaviour started in it since it was
+        extracted, more than half missed its reward. Returns the age of the oldest of those W
+        records, else None. (Older records re-labelled into a new R-situation do not count,
+        or the failures that broke one would break its successor at once.)"""
+        w = self.cfg.r_break_window
+        if w == 0:
+            return None
+        h = self.hist
+        ages = self._ages()
+        idx = np.flatnonzero(h.valid & (h.s == sit.id) & (h.b == sit.behaviour)
+                             & (ages < h.total - sit.created))
+        if len(idx) < w:
+            return None
+        ages = ages[idx]
+        last = np.argsort(ages, kind="stable")[:w]
+        met = sit.pos[idx[last]]
+        if 2 * int(np.count_nonzero(~met)) <= w:
+            return None
+        return int(ages[last].max())
+
+    def _forget_before(self, sit: Situation, since: int) -> None:
+        """With ``r_break_window``: a broken R-situation's positive records older than the
+        failures that broke it leave the history, or extraction would rebuild it at once from
+        them; the learner then starts again from the blank space there (paper section 7.2)."""
+        h = self.hist
+        old = sit.pos & h.valid & (self._ages() > since)
+        n = int(np.count_nonzero(old))
+        if n == 0:
+            return
+        h.valid[old] = False
+        for other in self.order:
+            if (other.pos & old).any():
+                other.shape_dirty = True
+            other.pos &= ~old
+            other.neg &= ~old
+            other.nn_dirty = True
+        self._event("forgotten", sit, records=n)
+        self._structure_changed()
 
     def _eliminate(self, sit: Situation, reason: str) -> None:
         self.order.remove(sit)

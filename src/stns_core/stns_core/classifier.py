@@ -59,6 +59,25 @@ class Classifier:
                 return sit.id
         return MARGIN
 
+    def nearest(self, x: np.ndarray, reach: float, kind: str | None = None) -> int:
+        """Id of the fitted situation (of ``kind``, if given) whose ellipsoid is nearest to
+        ``x`` in Mahalanobis distance relative to its boundary, if within ``reach``
+        boundaries (option ``margin_plan``); 0 if none."""
+        if not self.order:
+            return MARGIN
+        if self._stale:
+            self._rebuild()
+        fitted = self._b2 > 0.0
+        if kind is not None:
+            fitted &= np.array([sit.kind == kind for sit in self.order])
+        if not fitted.any():
+            return MARGIN
+        z = np.matmul(self._whiten, (x - self._means)[:, :, None])[:, :, 0]
+        rel = np.where(fitted, np.einsum("si,si->s", z, z) / np.where(fitted, self._b2, 1.0),
+                       np.inf)
+        k = int(np.argmin(rel))
+        return self.order[k].id if rel[k] <= reach * reach else MARGIN
+
     def classify_batch(self, xs: np.ndarray, hist_x: np.ndarray) -> np.ndarray:
         """Situation ids of many inputs (same rule as ``classify``)."""
         out = np.zeros(len(xs), dtype=np.int64)

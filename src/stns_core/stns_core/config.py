@@ -26,6 +26,7 @@ SHAPE_SCOPES = ("all", "t_only")
 TARGET_STOPS = ("first", "deepest")
 PLAN_STOPS = ("target", "higher_utility")
 T_RESULTS = ("reached", "unpunished")
+MARGIN_PLANS = ("margin", "nearest_r")
 
 _PRESETS: dict[str, dict[str, Any]] = {
     # Paper section 7.1 (Exp. 1 and, from a saved learner, Exp. 2).
@@ -66,6 +67,9 @@ class StnsConfig:
     target_stop: str = "first"
     plan_stop: str = "target"
     t_result: str = "reached"
+    margin_plan: str = "margin"
+    margin_plan_reach: float = 2.0
+    r_break_window: int = 0
     relabel: str = "after_modification"
     iprl_memo: bool = True
     cov_reg: float = 1e-3
@@ -89,7 +93,7 @@ class StnsConfig:
             "n_init_r": 1, "n_min_r": 1, "n_init_t": 1, "n_min_t": 1, "n_max": 1,
             "history_size": 2, "adjust_interval": 1, "seed": 0,
             "target_lookahead_ticks": 0, "max_behaviour_ticks": 0, "event_log_size": 1,
-            "elimination_grace_steps": 0, "explore_max_ticks": 0,
+            "elimination_grace_steps": 0, "explore_max_ticks": 0, "r_break_window": 0,
         }
         for name, lowest in ints.items():
             value = getattr(self, name)
@@ -100,7 +104,7 @@ class StnsConfig:
             if value < lowest:
                 raise StnsConfigError(f"{name} must be >= {lowest}, got {value!r}")
         for name in ("r_min_r", "gamma", "p_min", "cov_reg", "greedy_prob", "greedy_align_deg",
-                     "shape_trim", "boundary_quantile", "range_clip"):
+                     "shape_trim", "boundary_quantile", "range_clip", "margin_plan_reach"):
             value = getattr(self, name)
             if isinstance(value, bool | np.bool_) or not isinstance(value, numbers.Real):
                 raise StnsConfigError(f"{name} must be a number, got {value!r}")
@@ -123,6 +127,9 @@ class StnsConfig:
         if not 0.0 < self.boundary_quantile <= 1.0:
             raise StnsConfigError(
                 f"boundary_quantile must be in (0, 1], got {self.boundary_quantile!r}")
+        if self.margin_plan_reach <= 0.0:
+            raise StnsConfigError(
+                f"margin_plan_reach must be > 0, got {self.margin_plan_reach!r}")
         if self.range_clip < 0.0:
             raise StnsConfigError(f"range_clip must be >= 0 (0 = off), got {self.range_clip!r}")
         if self.n_min_r > self.history_size or self.n_init_t > self.history_size:
@@ -140,6 +147,7 @@ class StnsConfig:
             "boundary_refit": BOUNDARY_REFITS, "relabel": RELABELS,
             "exploration": EXPLORATIONS, "shape_scope": SHAPE_SCOPES,
             "target_stop": TARGET_STOPS, "plan_stop": PLAN_STOPS, "t_result": T_RESULTS,
+            "margin_plan": MARGIN_PLANS,
         }
         for name, allowed in choices.items():
             value = getattr(self, name)

@@ -220,3 +220,19 @@ def test_bad_constructor_arguments():
         StnsAgent(StnsConfig(), 0, 4)
     with pytest.raises(StnsInputError, match="n_behaviours must be an int"):
         StnsAgent(StnsConfig(), 2, 4.0)
+
+
+@pytest.mark.parametrize("margin_plan,reach,planned", [
+    ("margin", 2.0, False), ("nearest_r", 2.0, True), ("nearest_r", 1.2, False)])
+def test_margin_plan_reading(margin_plan, reach, planned):
+    """Just outside R (1.5 boundaries from its centre): the margin has no records, so the
+    paper's planner explores; nearest_r plans from R (drive to the goal) when within reach."""
+    agent, rid = agent_with_r_situation(margin_plan=margin_plan, margin_plan_reach=reach)
+    sit = agent.learner.by_id[rid]
+    x = np.array([1.5 * sit.boundary * float(np.sqrt(sit.cov[0, 0])), 0.0])
+    assert agent.classify(x) == 0
+    assert float(np.sqrt(sit.mahalanobis2(x)[0])) == pytest.approx(1.5 * sit.boundary)
+    b = agent.step(x, 0.0, False)
+    assert agent._run.planned is planned and agent._run.s0 == 0
+    if planned:
+        assert (b, agent._run.target) == (0, -1)  # R's plan: its behaviour, to the goal

@@ -291,3 +291,45 @@ def test_stored_labels_after_a_big_modification(mode):
     rid = lr.order[0].id
     labels = set(lr.hist.s[lr.hist.valid].tolist())
     assert labels == ({rid} if mode == "after_modification" else {0})
+
+
+# -- option r_break_window (algorithm.md, "Readings") --------------------------------------
+
+@pytest.mark.parametrize("window", [0, 4])
+def test_r_break_window_eliminates_a_broken_r_situation_and_forgets_its_old_positives(window):
+    lr = make_learner(n_init_r=3, n_min_r=3, r_break_window=window)
+    for k in range(6):  # slots 0-5: successes; R extracted at the 4th
+        add_goal_record(lr, k)
+    (r,) = lr.order
+    assert r.n_pos == 6
+    away = np.array([40.0, 40.0])
+    for k in range(3):  # slots 6-8: its behaviour from inside it now misses the goal
+        lr.add_record(GOAL_PTS[k], r.id, 0, -1.0, away, 0, False)
+        if k < 2 or window == 0:  # last 4 uses: s s f f -> 2 of 4 failed, not more than half
+            assert lr.order == [r]
+    if window == 0:
+        assert r.n_pos == 6 and lr.hist.valid.sum() == 9
+        return
+    assert lr.order == []  # s f f f: broken; R-situations are never recycled
+    ev = last(lr, "eliminated")
+    assert ev["situation"] == r.id and ev["reason"] == "recent_failures"
+    assert last(lr, "forgotten")["records"] == 5  # the 5 successes older than the window
+    assert lr.hist.valid.tolist() == [False] * 5 + [True] * 4 + [False] * (lr.hist.capacity - 9)
+    for k in range(3):  # one kept success + 3 new ones: more than n_init_r again
+        add_goal_record(lr, k + 3)
+    assert [s.attributes() for s in lr.order] == [("R", 0, 10.0)]
+    assert lr.order[0].n_pos == 4
+
+
+def test_r_break_window_counts_only_uses_since_extraction():
+    """Failures stored before an R-situation existed (re-labelled into it) do not break it."""
+    lr = make_learner(n_init_r=3, n_min_r=3, r_break_window=4)
+    for k in range(3):
+        add_goal_record(lr, k)
+    for k in range(3):  # misses from where the R-situation will be, before it exists
+        lr.add_record(np.array([0.1 * k, 0.0]), 0, 0, -1.0, np.array([40.0, 40.0]), 0, False)
+    add_goal_record(lr, 3)  # 4 successes: extracted; its stored uses: f f f s
+    (r,) = lr.order
+    assert lr.classify(np.array([0.1, 0.0])) == r.id
+    assert int(np.count_nonzero(lr.hist.s[lr.hist.valid] == r.id)) == 7
+    assert lr._broken(r) is None

@@ -52,6 +52,11 @@ def test_round_trip_and_replace():
     ("target_stop", "centre", "target_stop must be one of"),
     ("plan_stop", "any", "plan_stop must be one of"),
     ("t_result", "any", "t_result must be one of"),
+    ("margin_plan", "nearest_t", "margin_plan must be one of"),
+    ("margin_plan_reach", 0.0, "margin_plan_reach must be > 0, got 0.0"),
+    ("margin_plan_reach", float("inf"), "margin_plan_reach must be finite"),
+    ("r_break_window", -1, "r_break_window must be >= 0"),
+    ("r_break_window", 2.0, "r_break_window must be an int"),
 ])
 def test_bad_values_raise_named_errors(key, value, match):
     with pytest.raises(StnsConfigError, match=match):
