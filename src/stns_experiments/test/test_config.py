@@ -107,11 +107,11 @@ def test_cli_bad_arguments_exit_2_with_message(argv, match, capsys):
     assert re.search(match, err), err
 
 
-def test_exp1_improved_yaml_is_exp1_plus_the_three_readings():
+def test_exp1_improved_yaml_is_exp1_plus_the_four_readings():
     p = resolve("exp1", WS_CONFIG / "exp1-improved.yaml")
     d = validate("exp1", DEFAULTS["exp1"])
     assert p["agent"]["overrides"] == {
         "target_stop": "deepest", "target_lookahead_ticks": 1, "plan_stop": "higher_utility",
-        "t_result": "unpunished"}
+        "t_result": "unpunished", "margin_plan": "nearest_r", "margin_plan_reach": 2.5}
     assert {k: v for k, v in p.items() if k not in ("agent", "config_source")} == {
         k: v for k, v in d.items() if k not in ("agent", "config_source")}
