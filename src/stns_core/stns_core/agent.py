@@ -62,6 +62,7 @@ class _Running:
     la_count: int = -1  # look-ahead ticks spent inside the target (-1: not yet reached)
     prev_x: np.ndarray | None = None  # input of the previous tick (look-ahead extrapolation)
     greedy: bool = False  # an exploration step chosen by exploration="greedy_goal"
+    root: int = 0  # margin_plan="nearest_r": the R-situation the plan started from (0: none)
 
     def to_dict(self) -> dict[str, Any]:
         d = {
@@ -72,6 +73,8 @@ class _Running:
         }
         if self.greedy:  # only then: save files of the default config stay as they were
             d["greedy"] = True
+        if self.root:
+            d["root"] = self.root
         return d
 
     @classmethod
@@ -111,6 +114,9 @@ class StnsAgent:
         self._pending: list[StepRecord] = []
         self._current = 0  # situation of the last observation
         self._plan_utility = 0.0
+        # margin_plan="nearest_r": outcomes (goal reached?) of the last plans started from the
+        # margin with each R-situation's plan, newest last
+        self._margin_uses: dict[int, list[bool]] = {}
 
     # -- public API -------------------------------------------------------------------
     @property
@@ -294,6 +300,10 @@ class StnsAgent:
         success: bool | None = None
         if run.planned:
             success = bool(terminal) if run.target == GOAL else s_end == run.target
+        if run.root:
+            uses = self._margin_uses.setdefault(run.root, [])
+            uses.append(bool(success))
+            del uses[:-self.config.margin_plan_window]
         self._prev_reached = run.target if (run.planned and success and not terminal) else None
         rec = StepRecord(
             index=self.behaviour_steps, x=run.x0.copy(), situation=run.s0,
@@ -323,10 +333,17 @@ class StnsAgent:
     def _plan_root(self, x: np.ndarray, s: int) -> int:
         """The situation a new plan starts from: the current one (the paper), or under option
         margin_plan="nearest_r", from the margin, the R-situation nearest to the input if it
-        lies within ``margin_plan_reach`` of its boundaries (algorithm.md, "Readings")."""
-        if s == 0 and self.config.margin_plan == "nearest_r":
-            return self.learner.nearest(x, self.config.margin_plan_reach, R_KIND)
-        return s
+        lies within ``margin_plan_reach`` of its boundaries and its plan has not missed the
+        goal in more than half of its last ``margin_plan_window`` uses from the margin
+        (algorithm.md, "Readings")."""
+        cfg = self.config
+        if s != 0 or cfg.margin_plan != "nearest_r":
+            return s
+        rid = self.learner.nearest(x, cfg.margin_plan_reach, R_KIND)
+        uses = self._margin_uses.get(rid, [])
+        if len(uses) >= cfg.margin_plan_window and 2 * uses.count(False) > len(uses):
+            return 0  # its behaviour does not work out here: the margin's own plan
+        return rid
 
     def _plan_alive(self) -> bool:
         ids = self.learner.by_id
@@ -336,20 +353,23 @@ class StnsAgent:
         s = self.learner.classify(x)
         self._current = s
         greedy = False
+        margin_root = 0
         if (continuing and self._plan and self._prev_reached is not None
                 and s == self._prev_reached and self._plan_alive()):
             b, d = self._plan.pop(0)
             planned = True
         else:
-            u, plan = self.learner.plan(self._plan_root(x, s))
+            root = self._plan_root(x, s)
+            u, plan = self.learner.plan(root)
             self._plan_utility = u
             if u > 0.0 and plan:
                 (b, d), self._plan = plan[0], plan[1:]
                 planned = True
+                margin_root = root if root != s else 0
             else:
                 (b, greedy), d, planned = self._explore(x), None, False
                 self._plan = []
         self._run = _Running(x0=x.copy(), s0=s, b=int(b), target=d, planned=planned,
-                             greedy=greedy)
+                             greedy=greedy, root=margin_root)
         return int(b)
 

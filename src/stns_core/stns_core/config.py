@@ -69,6 +69,7 @@ class StnsConfig:
     t_result: str = "reached"
     margin_plan: str = "margin"
     margin_plan_reach: float = 2.0
+    margin_plan_window: int = 10
     r_break_window: int = 0
     relabel: str = "after_modification"
     iprl_memo: bool = True
@@ -94,6 +95,7 @@ class StnsConfig:
             "history_size": 2, "adjust_interval": 1, "seed": 0,
             "target_lookahead_ticks": 0, "max_behaviour_ticks": 0, "event_log_size": 1,
             "elimination_grace_steps": 0, "explore_max_ticks": 0, "r_break_window": 0,
+            "margin_plan_window": 1,
         }
         for name, lowest in ints.items():
             value = getattr(self, name)

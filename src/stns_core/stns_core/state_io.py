@@ -63,6 +63,7 @@ def save_agent(agent: StnsAgent, path: str | PathLike) -> None:
         "plan": [list(e) for e in agent._plan],
         "prev_reached": agent._prev_reached,
         "pending": [r.to_dict() for r in agent._pending],
+        "margin_uses": {str(k): v for k, v in agent._margin_uses.items()},
         "next_id": learner.next_id,
         "situations": sits,
         "events": list(learner.events),
@@ -153,4 +154,6 @@ def _restore(cls, arrays: dict[str, np.ndarray]) -> StnsAgent:
     agent._plan = [(int(b), int(d)) for b, d in meta["plan"]]
     agent._prev_reached = meta["prev_reached"]
     agent._pending = [StepRecord.from_dict(r) for r in meta["pending"]]
+    agent._margin_uses = {int(k): [bool(u) for u in v]
+                          for k, v in meta.get("margin_uses", {}).items()}
     return agent

@@ -236,3 +236,24 @@ def test_margin_plan_reading(margin_plan, reach, planned):
     assert agent._run.planned is planned and agent._run.s0 == 0
     if planned:
         assert (b, agent._run.target) == (0, -1)  # R's plan: its behaviour, to the goal
+
+
+def test_margin_plan_stops_using_an_r_plan_that_misses_from_the_margin(tmp_path):
+    """nearest_r keeps the outcomes of its margin uses: once more than half of the last
+    margin_plan_window missed the goal, the margin plans for itself again (and a saved
+    learner remembers it)."""
+    agent, rid = agent_with_r_situation(margin_plan="nearest_r", margin_plan_reach=2.0,
+                                        margin_plan_window=2)
+    sit = agent.learner.by_id[rid]
+    x = np.array([1.5 * sit.boundary * float(np.sqrt(sit.cov[0, 0])), 0.0])
+    for k in range(2):  # two uses from the margin, both end in a collision
+        agent.step(x, 0.0, False)
+        assert agent._run.planned and agent._run.root == rid, k
+        agent.step(x + [0.1, 0.0], -1.0, False)  # the penalty ends it; the next one begins
+        assert agent.pop_records()[0].success is False
+        agent.reset_trial()
+    assert agent._margin_uses == {rid: [False, False]}
+    agent.save(tmp_path / "a.npz")
+    for a in (agent, StnsAgent.load(tmp_path / "a.npz")):
+        a.step(x, 0.0, False)
+        assert a._run.planned is False and a._run.root == 0  # margin: nothing planned yet
