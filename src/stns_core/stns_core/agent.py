@@ -300,7 +300,7 @@ class StnsAgent:
         success: bool | None = None
         if run.planned:
             success = bool(terminal) if run.target == GOAL else s_end == run.target
-        if run.root:
+        if run.root and self.config.margin_plan_window:
             uses = self._margin_uses.setdefault(run.root, [])
             uses.append(bool(success))
             del uses[:-self.config.margin_plan_window]
@@ -333,15 +333,16 @@ class StnsAgent:
     def _plan_root(self, x: np.ndarray, s: int) -> int:
         """The situation a new plan starts from: the current one (the paper), or under option
         margin_plan="nearest_r", from the margin, the R-situation nearest to the input if it
-        lies within ``margin_plan_reach`` of its boundaries and its plan has not missed the
-        goal in more than half of its last ``margin_plan_window`` uses from the margin
+        lies within ``margin_plan_reach`` of its boundaries and (``margin_plan_window`` W > 0)
+        its plan has not missed the goal in more than half of its last W uses from the margin
         (algorithm.md, "Readings")."""
         cfg = self.config
         if s != 0 or cfg.margin_plan != "nearest_r":
             return s
         rid = self.learner.nearest(x, cfg.margin_plan_reach, R_KIND)
         uses = self._margin_uses.get(rid, [])
-        if len(uses) >= cfg.margin_plan_window and 2 * uses.count(False) > len(uses):
+        if (cfg.margin_plan_window and len(uses) >= cfg.margin_plan_window
+                and 2 * uses.count(False) > len(uses)):
             return 0  # its behaviour does not work out here: the margin's own plan
         return rid
 

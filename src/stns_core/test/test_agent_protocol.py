@@ -257,3 +257,7 @@ def test_margin_plan_stops_using_an_r_plan_that_misses_from_the_margin(tmp_path)
     for a in (agent, StnsAgent.load(tmp_path / "a.npz")):
         a.step(x, 0.0, False)
         assert a._run.planned is False and a._run.root == 0  # margin: nothing planned yet
+    unguarded, rid = agent_with_r_situation(margin_plan="nearest_r", margin_plan_window=0)
+    unguarded._margin_uses = {rid: [False, False]}
+    unguarded.step(x, 0.0, False)
+    assert unguarded._run.root == rid  # window 0: no guard

@@ -57,7 +57,7 @@ def test_round_trip_and_replace():
     ("margin_plan_reach", float("inf"), "margin_plan_reach must be finite"),
     ("r_break_window", -1, "r_break_window must be >= 0"),
     ("r_break_window", 2.0, "r_break_window must be an int"),
-    ("margin_plan_window", 0, "margin_plan_window must be >= 1"),
+    ("margin_plan_window", -1, "margin_plan_window must be >= 0"),
 ])
 def test_bad_values_raise_named_errors(key, value, match):
     with pytest.raises(StnsConfigError, match=match):
