@@ -63,12 +63,13 @@ def save_agent(agent: StnsAgent, path: str | PathLike) -> None:
         "plan": [list(e) for e in agent._plan],
         "prev_reached": agent._prev_reached,
         "pending": [r.to_dict() for r in agent._pending],
-        "margin_uses": {str(k): v for k, v in agent._margin_uses.items()},
         "next_id": learner.next_id,
         "situations": sits,
         "events": list(learner.events),
         "event_count": learner.event_count,
     }
+    if agent._margin_uses:  # only when used (option margin_plan="nearest_r")
+        meta["margin_uses"] = {str(k): v for k, v in agent._margin_uses.items()}
     arrays["meta"] = np.array(json.dumps(meta))
     directory = os.path.dirname(os.path.abspath(path))
     fd, tmp = tempfile.mkstemp(prefix=".stns-", suffix=".tmp", dir=directory)
