@@ -27,6 +27,7 @@ TARGET_STOPS = ("first", "deepest")
 PLAN_STOPS = ("target", "higher_utility")
 T_RESULTS = ("reached", "unpunished")
 MARGIN_PLANS = ("margin", "nearest_r")
+USELESS = ("negative", "no_positive_plan")
 
 _PRESETS: dict[str, dict[str, Any]] = {
     # Paper section 7.1 (Exp. 1 and, from a saved learner, Exp. 2).
@@ -71,6 +72,7 @@ class StnsConfig:
     margin_plan_reach: float = 2.0
     margin_plan_window: int = 10
     r_break_window: int = 0
+    useless: str = "negative"
     relabel: str = "after_modification"
     iprl_memo: bool = True
     cov_reg: float = 1e-3
@@ -149,7 +151,7 @@ class StnsConfig:
             "boundary_refit": BOUNDARY_REFITS, "relabel": RELABELS,
             "exploration": EXPLORATIONS, "shape_scope": SHAPE_SCOPES,
             "target_stop": TARGET_STOPS, "plan_stop": PLAN_STOPS, "t_result": T_RESULTS,
-            "margin_plan": MARGIN_PLANS,
+            "margin_plan": MARGIN_PLANS, "useless": USELESS,
         }
         for name, allowed in choices.items():
             value = getattr(self, name)

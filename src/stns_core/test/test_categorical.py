@@ -333,3 +333,20 @@ def test_r_break_window_counts_only_uses_since_extraction():
     assert lr.classify(np.array([0.1, 0.0])) == r.id
     assert int(np.count_nonzero(lr.hist.s[lr.hist.valid] == r.id)) == 7
     assert lr._broken(r) is None
+
+
+@pytest.mark.parametrize("useless,survives", [("negative", True), ("no_positive_plan", False)])
+def test_useless_reading_of_operation_5(useless, survives):
+    """T2's only tried behaviour always costs -1 and leads back to T2; the untried ones count
+    0 in Eq. 1, so its utility is 0: the paper's operation 5 keeps it, the reading does not."""
+    lr, r1, t2 = base(useless=useless)
+    for _ in range(20):
+        lr.hist.append(np.array([20.0, 0.0]), t2.id, 1, -1.0, np.array([20.0, 0.5]), t2.id,
+                       False)
+    lr._version += 1
+    lr._periodic()
+    assert t2.utility == 0.0 or t2.id not in lr.by_id
+    assert (t2.id in lr.by_id) is survives
+    assert r1.id in lr.by_id  # the R-situation has a positive plan
+    if not survives:
+        assert last(lr, "eliminated")["reason"] == "no positive plan 0"
