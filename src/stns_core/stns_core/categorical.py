@@ -460,17 +460,15 @@ class Learner:
         self._structure_changed()
 
     # -- operations 2, 3, 5 at the adjust interval ------------------------------------
-    def _useless(self, utilities: dict[int, float]):
-        """Operation 5's test: negative utility (the paper), or with option
+    def _useless(self, utilities: dict[int, float]) -> list[Situation]:
+        """Operation 5's candidates: negative utility (the paper), or with option
         ``useless="no_positive_plan"`` also utility 0 although behaviours were taken from it
         (Eq. 1 counts an untried behaviour as 0, so a situation whose tried behaviours all
         lose keeps utility 0 while any behaviour stays untried)."""
-        if self.cfg.useless == "negative":
-            return lambda sit: utilities[sit.id] < 0.0
-        tried = self.stn().tried
+        tried = self.stn().tried if self.cfg.useless == "no_positive_plan" else None
         lut = self.lut()
-        return lambda sit: utilities[sit.id] < 0.0 or (
-            utilities[sit.id] <= 0.0 and bool(tried[lut[sit.id]].any()))
+        return [s for s in self.order if utilities[s.id] < 0.0 or (
+            tried is not None and utilities[s.id] <= 0.0 and bool(tried[lut[s.id]].any()))]
 
     def _periodic(self) -> None:
         self._refit(only_dirty=False)  # operation 2
@@ -479,9 +477,8 @@ class Learner:
         self._version += 1
         utilities = self.compute_utilities()
         grace = self.cfg.elimination_grace_steps  # 0: the paper's operation 5
-        useless = self._useless(utilities)
-        negative = [s for s in self.order if useless(s)
-                    and (grace == 0 or self.hist.total - s.created >= grace)]
+        negative = [s for s in self._useless(utilities)
+                    if grace == 0 or self.hist.total - s.created >= grace]
         for sit in negative:  # operation 5
             if sit.id in self.by_id:
                 what = "negative utility" if utilities[sit.id] < 0.0 else "no positive plan"

@@ -28,6 +28,7 @@ class Classifier:
         self._means = np.zeros((0, dim))
         self._whiten = np.zeros((0, dim, dim))
         self._b2 = np.zeros(0)
+        self._kinds = np.zeros(0, dtype=object)
 
     def invalidate(self) -> None:
         self._stale = True
@@ -38,6 +39,7 @@ class Classifier:
         self._means = np.zeros((n, d))
         self._whiten = np.zeros((n, d, d))
         self._b2 = np.full(n, -1.0)  # never inside when not fitted
+        self._kinds = np.array([sit.kind for sit in self.order], dtype=object)
         for k, sit in enumerate(self.order):
             if sit.fitted:
                 self._means[k] = sit.mean
@@ -45,14 +47,18 @@ class Classifier:
                 self._b2[k] = sit.boundary2()
         self._stale = False
 
+    def _mahalanobis2(self, x: np.ndarray) -> np.ndarray:
+        """Squared Mahalanobis distance of one input from every situation (list order)."""
+        if self._stale:
+            self._rebuild()
+        z = np.matmul(self._whiten, (x - self._means)[:, :, None])[:, :, 0]
+        return np.einsum("si,si->s", z, z)
+
     def classify(self, x: np.ndarray, hist_x: np.ndarray) -> int:
         """Situation id of one input (0 = margin space)."""
         if not self.order:
             return MARGIN
-        if self._stale:
-            self._rebuild()
-        z = np.matmul(self._whiten, (x - self._means)[:, :, None])[:, :, 0]
-        d2 = np.einsum("si,si->s", z, z)
+        d2 = self._mahalanobis2(x)
         for k in np.flatnonzero(d2 <= self._b2):
             sit = self.order[k]
             if sit.nn_accepts(x, hist_x):
@@ -65,16 +71,13 @@ class Classifier:
         boundaries (option ``margin_plan``); 0 if none."""
         if not self.order:
             return MARGIN
-        if self._stale:
-            self._rebuild()
+        d2 = self._mahalanobis2(x)
         fitted = self._b2 > 0.0
         if kind is not None:
-            fitted &= np.array([sit.kind == kind for sit in self.order])
+            fitted &= self._kinds == kind
         if not fitted.any():
             return MARGIN
-        z = np.matmul(self._whiten, (x - self._means)[:, :, None])[:, :, 0]
-        rel = np.where(fitted, np.einsum("si,si->s", z, z) / np.where(fitted, self._b2, 1.0),
-                       np.inf)
+        rel = np.where(fitted, d2 / np.where(fitted, self._b2, 1.0), np.inf)
         k = int(np.argmin(rel))
         return self.order[k].id if rel[k] <= reach * reach else MARGIN
 
