@@ -337,9 +337,12 @@ class StnsAgent:
         its plan has not missed the goal in more than half of its last W uses from the margin
         (algorithm.md, "Readings")."""
         cfg = self.config
-        if s != 0 or cfg.margin_plan != "nearest_r":
+        if s != 0 or cfg.margin_plan == "margin":
             return s
         rid = self.learner.nearest(x, cfg.margin_plan_reach, R_KIND)
+        if (rid and cfg.margin_plan == "nearest_r_bitten"
+                and not self.learner.reach_accepts(rid, x)):
+            return 0  # a miss of its behaviour lies nearer than any of its successes
         uses = self._margin_uses.get(rid, [])
         if (cfg.margin_plan_window and len(uses) >= cfg.margin_plan_window
                 and 2 * uses.count(False) > len(uses)):

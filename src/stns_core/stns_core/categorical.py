@@ -61,6 +61,22 @@ class Learner:
         ``reach`` boundaries; 0: none."""
         return self.classifier.nearest(x, reach, kind)
 
+    def reach_accepts(self, sid: int, x: np.ndarray) -> bool:
+        """Option margin_plan="nearest_r_bitten": the bite of the ellipsoid carried beyond its
+        boundary. Among situation ``sid``'s positive and negative instances and the margin
+        records of its condition behaviour that missed its result, is the one nearest to
+        ``x`` (std-scaled Euclidean, as the NN test of Situation.nn_accepts) a positive?
+        With no such record, yes (nothing has bitten there yet)."""
+        sit = self.by_id[sid]
+        h = self.hist
+        missed = (h.valid & (h.s == MARGIN) & (h.b == sit.behaviour)
+                  & ~self._positive_mask(sit))
+        members = sit.pos | sit.neg | missed
+        if not members.any():
+            return True
+        d2 = np.sum(((h.x[members] - x) / sit.std) ** 2, axis=1)
+        return bool(sit.pos[members][int(np.argmin(d2))])
+
     def classify_batch(self, xs: np.ndarray) -> np.ndarray:
         return self.classifier.classify_batch(xs, self.hist.x)
 

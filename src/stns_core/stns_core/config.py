@@ -26,7 +26,7 @@ SHAPE_SCOPES = ("all", "t_only")
 TARGET_STOPS = ("first", "deepest")
 PLAN_STOPS = ("target", "higher_utility")
 T_RESULTS = ("reached", "unpunished")
-MARGIN_PLANS = ("margin", "nearest_r")
+MARGIN_PLANS = ("margin", "nearest_r", "nearest_r_bitten")
 USELESS = ("negative", "no_positive_plan")
 
 _PRESETS: dict[str, dict[str, Any]] = {

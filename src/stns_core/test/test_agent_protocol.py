@@ -261,3 +261,30 @@ def test_margin_plan_stops_using_an_r_plan_that_misses_from_the_margin(tmp_path)
     unguarded._margin_uses = {rid: [False, False]}
     unguarded.step(x, 0.0, False)
     assert unguarded._run.root == rid  # window 0: no guard
+
+
+def test_margin_plan_bitten_reach_follows_the_nearest_miss_or_success():
+    """nearest_r_bitten carries the bite beyond the R-ellipsoid: from the margin, R's plan is
+    taken unless a margin record of R's behaviour that missed the goal lies nearer the input
+    than every R instance; a success from the margin nearer still brings it back."""
+    agent, rid = agent_with_r_situation(margin_plan="nearest_r_bitten", margin_plan_reach=3.0)
+    lr = agent.learner
+    sit = lr.by_id[rid]
+    sx = float(np.sqrt(sit.cov[0, 0]))
+    x = np.array([2.0 * sit.boundary * sx, 0.0])
+    assert lr.classify(x) == 0 and lr.nearest(x, 3.0, "R") == rid
+    assert lr.reach_accepts(rid, x)  # nothing missed out here yet
+    assert agent._plan_root(x, 0) == rid
+    miss = x + [0.05 * sx, 0.0]
+    lr.add_record(miss, 0, 0, -1.0, miss, 0, False)  # R's behaviour from beside R: a collision
+    assert not lr.reach_accepts(rid, x)
+    assert agent._plan_root(x, 0) == 0
+    lr.add_record(miss, 0, 1, -1.0, miss, 0, False)  # another behaviour's miss does not bite
+    far_side = np.array([-2.0 * sit.boundary * sx, 0.0])
+    assert lr.classify(far_side) == 0 and agent._plan_root(far_side, 0) == rid
+    hit = x - [0.01 * sx, 0.0]
+    lr.add_record(hit, 0, 0, 10.0, hit, 0, True)  # a drive from here reached the goal
+    assert lr.reach_accepts(rid, x)
+    plain, rid2 = agent_with_r_situation(margin_plan="nearest_r", margin_plan_reach=3.0)
+    plain.learner.add_record(miss, 0, 0, -1.0, miss, 0, False)
+    assert plain._plan_root(x, 0) == rid2  # the unbitten reading ignores the miss
