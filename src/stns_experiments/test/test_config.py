@@ -112,7 +112,7 @@ def test_exp1_improved_yaml_is_exp1_plus_the_four_readings():
     d = validate("exp1", DEFAULTS["exp1"])
     assert p["agent"]["overrides"] == {
         "target_stop": "deepest", "target_lookahead_ticks": 1, "plan_stop": "higher_utility",
-        "t_result": "unpunished", "margin_plan": "nearest_r", "margin_plan_reach": 2.5,
+        "t_result": "unpunished", "margin_plan": "nearest_r_bitten", "margin_plan_reach": 2.5,
         "margin_plan_window": 0}
     assert {k: v for k, v in p.items() if k not in ("agent", "config_source")} == {
         k: v for k, v in d.items() if k not in ("agent", "config_source")}
