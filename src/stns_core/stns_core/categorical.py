@@ -453,9 +453,14 @@ class Learner:
     def _forget_before(self, sit: Situation, since: int) -> None:
         """With ``r_break_window``: a broken R-situation's positive records older than the
         failures that broke it leave the history, or extraction would rebuild it at once from
-        them; the learner then starts again from the blank space there (paper section 7.2)."""
+        them; the learner then starts again from the blank space there (paper section 7.2).
+        ``r_break_forget="history"``: every record older than those failures leaves, so the
+        whole learner starts again from the blank space (its situations, left without
+        positives, are eliminated by operation 4)."""
         h = self.hist
-        old = sit.pos & h.valid & (self._ages() > since)
+        old = h.valid & (self._ages() > since)
+        if self.cfg.r_break_forget == "positives":
+            old &= sit.pos
         n = int(np.count_nonzero(old))
         if n == 0:
             return

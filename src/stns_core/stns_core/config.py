@@ -27,6 +27,7 @@ TARGET_STOPS = ("first", "deepest")
 PLAN_STOPS = ("target", "higher_utility")
 T_RESULTS = ("reached", "unpunished")
 MARGIN_PLANS = ("margin", "nearest_r", "nearest_r_bitten")
+R_BREAK_FORGETS = ("positives", "history")
 USELESS = ("negative", "no_positive_plan")
 
 _PRESETS: dict[str, dict[str, Any]] = {
@@ -72,6 +73,7 @@ class StnsConfig:
     margin_plan_reach: float = 2.0
     margin_plan_window: int = 10
     r_break_window: int = 0
+    r_break_forget: str = "positives"
     useless: str = "negative"
     relabel: str = "after_modification"
     iprl_memo: bool = True
@@ -151,7 +153,7 @@ class StnsConfig:
             "boundary_refit": BOUNDARY_REFITS, "relabel": RELABELS,
             "exploration": EXPLORATIONS, "shape_scope": SHAPE_SCOPES,
             "target_stop": TARGET_STOPS, "plan_stop": PLAN_STOPS, "t_result": T_RESULTS,
-            "margin_plan": MARGIN_PLANS, "useless": USELESS,
+            "margin_plan": MARGIN_PLANS, "useless": USELESS, "r_break_forget": R_BREAK_FORGETS,
         }
         for name, allowed in choices.items():
             value = getattr(self, name)

@@ -321,6 +321,29 @@ def test_r_break_window_eliminates_a_broken_r_situation_and_forgets_its_old_posi
     assert lr.order[0].n_pos == 4
 
 
+@pytest.mark.parametrize("forget", ["positives", "history"])
+def test_r_break_forget_reading(forget):
+    """r_break_forget="history": every record older than the failures that broke the
+    R-situation leaves the history (the blank state of section 7.2), not only its positives."""
+    lr = make_learner(n_init_r=3, n_min_r=3, r_break_window=4, r_break_forget=forget)
+    far = np.array([60.0, -60.0])
+    for _ in range(2):  # slots 0-1: another behaviour, far from the goal
+        lr.add_record(far, 0, 1, -1.0, far + 1.0, 0, False)
+    for k in range(5):  # slots 2-6: successes; R extracted at the 4th (slot 5)
+        add_goal_record(lr, k)
+    (r,) = lr.order
+    for k in range(3):  # slots 7-9: its uses since extraction s f f f -> broken
+        lr.add_record(GOAL_PTS[k], r.id, 0, -1.0, np.array([40.0, 40.0]), 0, False)
+    assert lr.order == []
+    kept = lr.hist.valid[:10].tolist()
+    if forget == "positives":  # the 4 successes older than the window
+        assert last(lr, "forgotten")["records"] == 4
+        assert kept == [True, True] + [False] * 4 + [True] * 4
+    else:  # and the 2 other records
+        assert last(lr, "forgotten")["records"] == 6
+        assert kept == [False] * 6 + [True] * 4
+
+
 def test_r_break_window_counts_only_uses_since_extraction():
     """Failures stored before an R-situation existed (re-labelled into it) do not break it."""
     lr = make_learner(n_init_r=3, n_min_r=3, r_break_window=4)

@@ -59,6 +59,7 @@ def test_round_trip_and_replace():
     ("r_break_window", 2.0, "r_break_window must be an int"),
     ("margin_plan_window", -1, "margin_plan_window must be >= 0"),
     ("useless", "zero", "useless must be one of"),
+    ("r_break_forget", "all", "r_break_forget must be one of"),
 ])
 def test_bad_values_raise_named_errors(key, value, match):
     with pytest.raises(StnsConfigError, match=match):
