@@ -380,7 +380,8 @@ class Learner:
     def _recycle(self, sit: Situation, reason: str, counts: np.ndarray) -> None:
         cfg = self.cfg
         if sit.kind == R_KIND:
-            since = self._broken(sit) if reason == "recent_failures" else None
+            since = (self._broken(sit, first_miss=cfg.r_break_forget == "history")
+                     if reason == "recent_failures" else None)
             self._eliminate(sit, reason)  # R-situations are never recycled (algorithm.md)
             if since is not None:
                 self._forget_before(sit, since)
@@ -428,12 +429,13 @@ class Learner:
         h = self.hist
         return (h.head - 1 - np.arange(h.capacity)) % h.capacity
 
-    def _broken(self, sit: Situation) -> int | None:
+    def _broken(self, sit: Situation, first_miss: bool = False) -> int | None:
         """Option ``r_break_window`` W (not the paper's): an R-situation is broken when, of
         the last W behaviours of its condition behaviour started in it since it was
         extracted, more than half missed its reward. Returns the age of the oldest of those W
-        records, else None. (Older records re-labelled into a new R-situation do not count,
-        or the failures that broke one would break its successor at once.)"""
+        records (``first_miss``: of the oldest miss among them), else None. (Older records
+        re-labelled into a new R-situation do not count, or the failures that broke one
+        would break its successor at once.)"""
         w = self.cfg.r_break_window
         if w == 0:
             return None
@@ -448,15 +450,17 @@ class Learner:
         met = sit.pos[idx[last]]
         if 2 * int(np.count_nonzero(~met)) <= w:
             return None
-        return int(ages[last].max())
+        return int(ages[last][~met].max() if first_miss else ages[last].max())
 
     def _forget_before(self, sit: Situation, since: int) -> None:
         """With ``r_break_window``: a broken R-situation's positive records older than the
         failures that broke it leave the history, or extraction would rebuild it at once from
         them; the learner then starts again from the blank space there (paper section 7.2).
-        ``r_break_forget="history"``: every record older than those failures leaves, so the
-        whole learner starts again from the blank space (its situations, left without
-        positives, are eliminated by operation 4)."""
+        ``r_break_forget="history"``: every record older than the first of those failures
+        leaves, so the whole learner starts again from the blank space (its situations, left
+        without positives, are eliminated by operation 4). From the first failure, not the
+        window's start: a rarely used R-situation's window reaches back past the fault, and
+        what was learned after the fault stays."""
         h = self.hist
         old = h.valid & (self._ages() > since)
         if self.cfg.r_break_forget == "positives":

@@ -323,7 +323,7 @@ def test_r_break_window_eliminates_a_broken_r_situation_and_forgets_its_old_posi
 
 @pytest.mark.parametrize("forget", ["positives", "history"])
 def test_r_break_forget_reading(forget):
-    """r_break_forget="history": every record older than the failures that broke the
+    """r_break_forget="history": every record older than the first failure that broke the
     R-situation leaves the history (the blank state of section 7.2), not only its positives."""
     lr = make_learner(n_init_r=3, n_min_r=3, r_break_window=4, r_break_forget=forget)
     far = np.array([60.0, -60.0])
@@ -339,9 +339,9 @@ def test_r_break_forget_reading(forget):
     if forget == "positives":  # the 4 successes older than the window
         assert last(lr, "forgotten")["records"] == 4
         assert kept == [True, True] + [False] * 4 + [True] * 4
-    else:  # and the 2 other records
-        assert last(lr, "forgotten")["records"] == 6
-        assert kept == [False] * 6 + [True] * 4
+    else:  # every record older than the first miss: the 2 others and all 5 successes
+        assert last(lr, "forgotten")["records"] == 7
+        assert kept == [False] * 7 + [True] * 3
 
 
 def test_r_break_window_counts_only_uses_since_extraction():
