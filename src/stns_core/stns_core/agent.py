@@ -334,8 +334,9 @@ class StnsAgent:
         """The situation a new plan starts from: the current one (the paper), or under option
         margin_plan="nearest_r", from the margin, the R-situation nearest to the input if it
         lies within ``margin_plan_reach`` of its boundaries and (``margin_plan_window`` W > 0)
-        its plan has not missed the goal in more than half of its last W uses from the margin
-        (algorithm.md, "Readings")."""
+        its plan has not missed the goal in more than half of its last W uses from the margin;
+        "nearest_r_bitten": also only if the R-situation's bite, carried beyond its boundary,
+        accepts the input (``Learner.reach_accepts``) (algorithm.md, "Readings")."""
         cfg = self.config
         if s != 0 or cfg.margin_plan == "margin":
             return s
