@@ -432,8 +432,9 @@ class Learner:
     def _broken(self, sit: Situation, first_miss: bool = False) -> int | None:
         """Option ``r_break_window`` W (not the paper's): an R-situation is broken when, of
         the last W behaviours of its condition behaviour started in it since it was
-        extracted, more than half missed its reward. Returns the age of the oldest of those W
-        records (``first_miss``: of the oldest miss among them), else None. (Older records
+        extracted, more than ``r_break_fraction`` of them (default half) missed its reward.
+        Returns the age of the oldest of those W records (``first_miss``: of the oldest miss
+        among them), else None. (Older records
         re-labelled into a new R-situation do not count, or the failures that broke one
         would break its successor at once.)"""
         w = self.cfg.r_break_window
@@ -448,7 +449,7 @@ class Learner:
         ages = ages[idx]
         last = np.argsort(ages, kind="stable")[:w]
         met = sit.pos[idx[last]]
-        if 2 * int(np.count_nonzero(~met)) <= w:
+        if int(np.count_nonzero(~met)) <= self.cfg.r_break_fraction * w:
             return None
         return int(ages[last][~met].max() if first_miss else ages[last].max())
 

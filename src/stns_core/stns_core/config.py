@@ -74,6 +74,7 @@ class StnsConfig:
     margin_plan_window: int = 10
     r_break_window: int = 0
     r_break_forget: str = "positives"
+    r_break_fraction: float = 0.5
     useless: str = "negative"
     relabel: str = "after_modification"
     iprl_memo: bool = True
@@ -110,7 +111,8 @@ class StnsConfig:
             if value < lowest:
                 raise StnsConfigError(f"{name} must be >= {lowest}, got {value!r}")
         for name in ("r_min_r", "gamma", "p_min", "cov_reg", "greedy_prob", "greedy_align_deg",
-                     "shape_trim", "boundary_quantile", "range_clip", "margin_plan_reach"):
+                     "shape_trim", "boundary_quantile", "range_clip", "margin_plan_reach",
+                     "r_break_fraction"):
             value = getattr(self, name)
             if isinstance(value, bool | np.bool_) or not isinstance(value, numbers.Real):
                 raise StnsConfigError(f"{name} must be a number, got {value!r}")
@@ -136,6 +138,9 @@ class StnsConfig:
         if self.margin_plan_reach <= 0.0:
             raise StnsConfigError(
                 f"margin_plan_reach must be > 0, got {self.margin_plan_reach!r}")
+        if not 0.0 <= self.r_break_fraction < 1.0:
+            raise StnsConfigError(
+                f"r_break_fraction must be in [0, 1), got {self.r_break_fraction!r}")
         if self.range_clip < 0.0:
             raise StnsConfigError(f"range_clip must be >= 0 (0 = off), got {self.range_clip!r}")
         if self.n_min_r > self.history_size or self.n_init_t > self.history_size:

@@ -344,6 +344,22 @@ def test_r_break_forget_reading(forget):
         assert kept == [False] * 7 + [True] * 3
 
 
+@pytest.mark.parametrize("fraction,misses_to_break", [(0.5, 3), (0.75, 4)])
+def test_r_break_fraction(fraction, misses_to_break):
+    """The break needs more than r_break_fraction of the window to have missed: with a
+    window of 4 after one success, 3 misses break it at 0.5, 4 at 0.75."""
+    lr = make_learner(n_init_r=3, n_min_r=3, r_break_window=4, r_break_fraction=fraction)
+    for k in range(5):
+        add_goal_record(lr, k)
+    (r,) = lr.order
+    for k in range(4):
+        lr.add_record(GOAL_PTS[k], r.id, 0, -1.0, np.array([40.0, 40.0]), 0, False)
+        assert (lr.order == []) is (k + 1 >= misses_to_break), k
+        if not lr.order:
+            return
+    raise AssertionError("never broken")
+
+
 def test_r_break_window_counts_only_uses_since_extraction():
     """Failures stored before an R-situation existed (re-labelled into it) do not break it."""
     lr = make_learner(n_init_r=3, n_min_r=3, r_break_window=4)
