@@ -434,9 +434,8 @@ class Learner:
         the last W behaviours of its condition behaviour started in it since it was
         extracted, more than ``r_break_fraction`` of them (default half) missed its reward.
         Returns the age of the oldest of those W records (``first_miss``: of the oldest miss
-        among them), else None. (Older records
-        re-labelled into a new R-situation do not count, or the failures that broke one
-        would break its successor at once.)"""
+        among them), else None. (Older records re-labelled into a new R-situation do not
+        count, or the failures that broke one would break its successor at once.)"""
         w = self.cfg.r_break_window
         if w == 0:
             return None
