@@ -4,7 +4,8 @@ The bring-up records inside the simulator process (no second DDS hop for the per
 topics); this node records any run or any set of topics from outside, like ``ros2 bag
 record``. Topic types come from the run's table (`topics.TYPES`) or ``types``
 ("topic=pkg/msg/Type" entries). Log times are the node's clock (sim time with
-use_sim_time). SIGINT/SIGTERM close the bag; a SIGKILL leaves a readable prefix.
+use_sim_time). SIGINT/SIGTERM close the bag after half a second more of recording (what DDS
+has delivered is written); a SIGKILL leaves a readable prefix.
 """
 
 from __future__ import annotations
@@ -52,7 +53,7 @@ class RecorderNode(Node):
 
 
 def main(args=None) -> None:
-    run_node("stns_recorder", RecorderNode, args)
+    run_node("stns_recorder", RecorderNode, args, drain_seconds=0.5)
 
 
 if __name__ == "__main__":

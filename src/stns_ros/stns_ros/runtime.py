@@ -8,7 +8,9 @@ SingleThreadedExecutor, which matters in lockstep where every tick is a DDS roun
 from __future__ import annotations
 
 import os
+import signal
 import sys
+import time
 from collections.abc import Callable
 
 import rclpy
@@ -44,16 +46,32 @@ def spin(node: Node, done: Callable[[], bool] = lambda: False) -> None:
 
 
 def run_node(name: str, make_node: Callable[[], Node], args: list[str] | None = None,
-             done: Callable[[Node], bool] = lambda node: False) -> None:
+             done: Callable[[Node], bool] = lambda node: False,
+             drain_seconds: float = 0.0) -> None:
     """The ``main`` of every node: init, spin until Ctrl-C/SIGTERM or ``done``, clean up.
 
+    ``drain_seconds`` > 0 (the recorder): Ctrl-C/SIGTERM only ask the node to stop; it spins
+    on for that long first, so messages DDS has already delivered (and acknowledged to their
+    publishers) still reach the callbacks before ``close``. rclpy's own handler would shut
+    the context down at once and drop them.
     A configuration error (bad parameter, bad scenario) exits with its message, no traceback.
     """
-    rclpy.init(args=args)
+    stop: list[int] = []
+    if drain_seconds > 0.0:
+        from rclpy.signals import SignalHandlerOptions
+
+        rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
+        for sig in (signal.SIGINT, signal.SIGTERM):
+            signal.signal(sig, lambda signum, frame: stop.append(signum))
+    else:
+        rclpy.init(args=args)
     node = None
     try:
         node = make_node()
-        spin(node, lambda: done(node))
+        spin(node, lambda: bool(stop) or done(node))
+        if stop:
+            end = time.monotonic() + drain_seconds
+            spin(node, lambda: time.monotonic() >= end)
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
     except (StnsRosError, ParameterException) as e:
