@@ -51,6 +51,8 @@ class Learner:
         self._stn_version = -1
         self._planner: Iprl | Pia | None = None
         self._planner_version = -1
+        self._recent: np.ndarray | None = None  # option nn_window: slots of the newest records
+        self.refresh_nn_window()
 
     # -- classification ---------------------------------------------------------------
     def classify(self, x: np.ndarray) -> int:
@@ -72,6 +74,8 @@ class Learner:
         missed = (h.valid & (h.s == MARGIN) & (h.b == sit.behaviour)
                   & ~self._positive_mask(sit))
         members = sit.pos | sit.neg | missed
+        if self._recent is not None and (members & self._recent).any():
+            members &= self._recent  # option nn_window, as in Situation.nn_members
         if not members.any():
             return True
         d2 = np.sum(((h.x[members] - x) / sit.std) ** 2, axis=1)
@@ -190,6 +194,8 @@ class Learner:
         cfg = self.cfg
         h = self.hist
         slot, _ = h.append(x, s, b, reward, x_next, s_next, terminal)
+        if self._recent is not None:
+            self._slide_nn_window(slot)
         for sit in self.order:  # forgetting: the slot leaves every population
             if sit.pos[slot] or sit.neg[slot]:
                 if sit.pos[slot]:
@@ -281,6 +287,7 @@ class Learner:
         sit = Situation(self.next_id, kind, b, h.capacity, h.dim, parent=parent,
                         reward_key=key, created=h.total)
         self.next_id += 1
+        sit.nn_recent = self._recent
         sit.pos = self._positive_mask(sit)
         self._fit(sit)
         self.order.append(sit)  # bottom of the tree until the next re-ordering
@@ -423,6 +430,33 @@ class Learner:
         self._event("redefined", sit, reason=reason, old_behaviour=old[0], old_parent=old[1])
         self._structure_changed()
         self._negatives_from_history(sit)
+
+    def refresh_nn_window(self) -> None:
+        """Option ``nn_window`` W (not the paper's): the NN test of every situation compares
+        only instances among the newest W records (all, if none of its instances is among
+        them), so a miss after a fault outweighs the older successes around it within W steps
+        instead of the history's length. Rebuilds the window from the history (after a load)."""
+        w = self.cfg.nn_window
+        if w == 0:
+            self._recent = None
+        else:
+            self._recent = self.hist.valid & (self._ages() < w)
+        for sit in self.order:
+            sit.nn_recent = self._recent
+            sit.nn_dirty = True
+
+    def _slide_nn_window(self, slot: int) -> None:
+        """The record just stored in ``slot`` enters the NN window; the one W records older
+        leaves it, and the situations it was an instance of rebuild their NN caches."""
+        h = self.hist
+        w = self.cfg.nn_window
+        self._recent[slot] = True
+        if w < h.capacity and h.total > w:
+            out = (slot - w) % h.capacity
+            self._recent[out] = False
+            for sit in self.order:
+                if sit.pos[out] or sit.neg[out]:
+                    sit.nn_dirty = True
 
     def _ages(self) -> np.ndarray:
         """Age of each history slot in records (0 = the newest)."""

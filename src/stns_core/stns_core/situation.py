@@ -69,6 +69,9 @@ class Situation:
         self._nn_pts = np.zeros((0, dim))
         self._nn_sqn = np.zeros(0)
         self._nn_lab = np.zeros(0, dtype=bool)
+        # option nn_window: the history slots of the newest records (shared with the
+        # learner); None: the NN test uses every instance (the paper)
+        self.nn_recent: np.ndarray | None = None
 
     # -- attributes -------------------------------------------------------------------
     def attributes(self) -> tuple:
@@ -163,8 +166,18 @@ class Situation:
         return np.einsum("ij,ij->i", z, z)
 
     # -- microscopic test -------------------------------------------------------------
-    def _nn_cache(self, x: np.ndarray) -> None:
+    def nn_members(self) -> np.ndarray:
+        """Slots of the instances the NN test compares: all positives and negatives, or with
+        option ``nn_window`` those among the newest records if there are any."""
         members = self.pos | self.neg
+        if self.nn_recent is not None:
+            recent = members & self.nn_recent
+            if recent.any():
+                return recent
+        return members
+
+    def _nn_cache(self, x: np.ndarray) -> None:
+        members = self.nn_members()
         pts = x[members] / self.std
         self._nn_pts = np.ascontiguousarray(pts)
         self._nn_sqn = np.einsum("ij,ij->i", pts, pts)

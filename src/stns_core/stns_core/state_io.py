@@ -145,6 +145,7 @@ def _restore(cls, arrays: dict[str, np.ndarray]) -> StnsAgent:
     learner.event_count = int(meta["event_count"])
     learner.structure_version += 1
     learner.classifier.invalidate()
+    learner.refresh_nn_window()
     rng = np.random.default_rng()
     rng.bit_generator.state = meta["rng_state"]
     agent.rng = rng

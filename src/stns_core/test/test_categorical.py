@@ -389,3 +389,43 @@ def test_useless_reading_of_operation_5(useless, survives):
     assert r1.id in lr.by_id  # the R-situation has a positive plan
     if not survives:
         assert last(lr, "eliminated")["reason"] == "no positive plan 0"
+
+
+def test_nn_window_lets_a_recent_miss_outweigh_older_successes():
+    """A miss at the R-situation's centre, nearer the query than the new success but farther
+    than an old one: the paper's NN test accepts (the old success is nearest); with the
+    window holding only the newest records it rejects; once the miss has left the window (no
+    instance of the situation in it) every instance counts again."""
+    query = np.array([1.2, 0.0])  # nearest instance: the old success at (2, 0)
+    results = {}
+    for window in (0, 3):
+        lr = make_learner(n_init_r=3, n_min_r=3, nn_window=window)
+        for k in range(8):
+            add_goal_record(lr, k)  # successes on a ring of radius 2; (-2, 0) is k = 1
+        (r,) = lr.order
+        assert lr.classify(query) == r.id
+        add_goal_record(lr, 1)  # a new success, far from the query
+        lr.add_record(np.zeros(2), r.id, 0, -1.0, np.array([40.0, 40.0]), 0, False)  # miss
+        assert r.neg.any()
+        results[window] = [lr.classify(query) == r.id]
+        for _ in range(3):  # other behaviours elsewhere: no instances of r
+            lr.add_record(np.array([30.0, 0.0]), 0, 1, 0.0, np.array([31.0, 0.0]), 0, False)
+        results[window].append(lr.classify(query) == r.id)
+        if window:
+            assert int(np.count_nonzero(lr._recent)) == window
+            assert not (lr._recent & (r.pos | r.neg)).any()
+    assert results == {0: [True, True], 3: [False, True]}
+
+
+def test_nn_window_also_bounds_the_bitten_reach():
+    """margin_plan="nearest_r_bitten" compares the same windowed instances beyond the
+    ellipsoid: a recent miss outside outweighs an older success nearer the input."""
+    out = {}
+    for window in (0, 2):
+        lr = make_learner(n_init_r=3, n_min_r=3, nn_window=window)
+        for k in range(8):
+            add_goal_record(lr, k)
+        (r,) = lr.order
+        lr.add_record(np.array([-3.0, 0.0]), 0, 0, -1.0, np.array([40.0, 40.0]), 0, False)
+        out[window] = lr.reach_accepts(r.id, np.array([-2.45, 0.0]))
+    assert out == {0: True, 2: False}

@@ -58,6 +58,8 @@ def test_round_trip_and_replace():
     ("r_break_window", -1, "r_break_window must be >= 0"),
     ("r_break_window", 2.0, "r_break_window must be an int"),
     ("margin_plan_window", -1, "margin_plan_window must be >= 0"),
+    ("nn_window", -5, "nn_window must be >= 0"),
+    ("nn_window", "200", "nn_window must be an int"),
     ("useless", "zero", "useless must be one of"),
     ("r_break_forget", "all", "r_break_forget must be one of"),
     ("r_break_fraction", 1.0, "r_break_fraction must be in \\[0, 1\\), got 1.0"),

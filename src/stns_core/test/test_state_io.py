@@ -27,9 +27,10 @@ def drive(agent, world, state, ticks, until_steps=None):
     return actions, (obs, reward, terminated)
 
 
-@pytest.mark.parametrize("planner", ["iprl", "pia"])
-def test_loaded_agent_continues_with_identical_decisions(tmp_path, planner):
-    agent = StnsAgent(StnsConfig.preset("exp1", seed=11, planner=planner), 2, 4)
+@pytest.mark.parametrize("planner,extra", [("iprl", {}), ("pia", {}),
+                                           ("iprl", {"nn_window": 100})])
+def test_loaded_agent_continues_with_identical_decisions(tmp_path, planner, extra):
+    agent = StnsAgent(StnsConfig.preset("exp1", seed=11, planner=planner, **extra), 2, 4)
     world = KinematicRover(seed=11)
     _, state = drive(agent, world, (world.reset(), 0.0, False), 0, until_steps=700)
     assert agent.learner.order, "expected situations after 12000 ticks"
