@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import copy
+import dataclasses
 import json
 import logging
 import math
@@ -20,6 +21,7 @@ from stns_experiments.experiments import (
     delay_figures,
     dispatch,
     load_agent,
+    make_agent_config,
     make_world,
     random_summary,
     situations_of,
@@ -239,6 +241,21 @@ def _level_name(p: dict, level: float) -> str:
     return f"{v}pct" if p["fault"] == "left_wheel_slowdown_pct" else f"{v}deg"
 
 
+def _check_base_configs(p: dict, states: list[Path]) -> None:
+    """--from: a relearning learner continues with the settings it was saved with, while the
+    from-scratch learners take this run's; refuse states saved with other agent settings (the
+    per-set seed aside) rather than compare two different learners."""
+    want = dataclasses.asdict(make_agent_config(p, 0))
+    for st in states:
+        got = dataclasses.asdict(load_agent(st).config)
+        diff = [f"{k}={got.get(k)!r} (state) vs {want[k]!r} (this run)"
+                for k in sorted(want) if k != "seed" and got.get(k) != want[k]]
+        if diff:
+            raise ExperimentError(
+                f"--from: learner state {str(st)!r} was saved with other agent settings: "
+                f"{'; '.join(diff)}; use the same agent settings, or run without --from")
+
+
 def run_exp2(run: Run) -> dict:
     """Exp. 2: learners after ``pretrain_steps`` of Exp. 1 continue with a fault; beside
     them, learners from scratch with the fault."""
@@ -259,6 +276,7 @@ def run_exp2(run: Run) -> dict:
             rj = base_dir / "sets" / (st.stem + ".json")
             if rj.exists():
                 base_results.append(json.loads(rj.read_text()))
+        _check_base_configs(p, states[:n])
         base_states = [str(s) for s in states[:n]]
     else:
         tasks = [run.task("stns", f"set{i:02d}", i, p["pretrain_steps"], s, params=base_params,

@@ -57,6 +57,20 @@ def test_smoke_exp2(tmp_path, exp, level):
                  str(out / "base"), "--out", str(out2)] + SMALL) == 0
 
 
+
+def test_from_refuses_states_saved_with_other_agent_settings(tmp_path, capsys):
+    """The relearning learners would silently keep the saved settings while the from-scratch
+    ones took the new: --from refuses, naming the setting."""
+    out, _ = _run(tmp_path, ["exp2-sensor", "--steps", "50", "--levels", "20", "--no-figures",
+                             "--set", "pretrain_steps=100"] + SMALL)
+    argv = ["exp2-sensor", "--steps", "50", "--levels", "20", "--no-figures", "--from",
+            str(out / "base"), "--out", str(tmp_path / "again")] + SMALL
+    assert main(argv + ["--set", "agent.overrides.nn_window=50"]) == 2
+    err = capsys.readouterr().err
+    assert "set00.npz' was saved with other agent settings: nn_window=0 (state) vs 50" in err
+    assert not (tmp_path / "again" / "summary.json").exists()
+
+
 def test_smoke_exp3(tmp_path):
     _, s = _run(tmp_path, ["exp3", "--steps", "100", "--no-figures"] + SMALL)
     assert s["experiment"] == "exp3"
