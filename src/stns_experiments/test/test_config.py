@@ -122,11 +122,12 @@ def test_exp1_improved_yaml_is_exp1_plus_the_four_readings():
 def test_exp2_improved_yaml_is_the_exp2_file_plus_the_readings(exp):
     """config/exp2-*-improved.yaml: the paper's Exp. 2 file, 4000 steps after the fault (as
     the runs of docs/RESULTS.md), and the learner of config/exp1-improved.yaml plus the
-    blank restart on a broken R-situation."""
+    NN window and the blank restart on an R-situation whose last 20 uses all missed."""
     p = resolve(exp, WS_CONFIG / f"{exp}-improved.yaml")
     base = resolve(exp, WS_CONFIG / f"{exp}.yaml")
     e1 = resolve("exp1", WS_CONFIG / "exp1-improved.yaml")
-    assert p["agent"]["overrides"] == {**e1["agent"]["overrides"], "r_break_window": 20,
+    assert p["agent"]["overrides"] == {**e1["agent"]["overrides"], "nn_window": 300,
+                                       "r_break_window": 20, "r_break_fraction": 0.95,
                                        "r_break_forget": "history"}
     assert p["steps"] == 4000 and base["steps"] == 5000
     assert {k: v for k, v in p.items() if k not in ("agent", "config_source", "steps")} == {
