@@ -19,7 +19,7 @@ from .classifier import MARGIN, Classifier
 from .config import StnsConfig
 from .history import History
 from .planning import Iprl, Pia
-from .situation import R_KIND, T_KIND, Situation, t_result_mask
+from .situation import R_KIND, T_KIND, Situation, in_nn_window, t_result_mask
 from .stn import Stn
 
 GOAL = -1  # target id of a plan element whose result is the goal reward
@@ -73,9 +73,7 @@ class Learner:
         h = self.hist
         missed = (h.valid & (h.s == MARGIN) & (h.b == sit.behaviour)
                   & ~self._positive_mask(sit))
-        members = sit.pos | sit.neg | missed
-        if self._recent is not None and (members & self._recent).any():
-            members &= self._recent  # option nn_window, as in Situation.nn_members
+        members = in_nn_window(sit.pos | sit.neg | missed, self._recent)
         if not members.any():
             return True
         d2 = np.sum(((h.x[members] - x) / sit.std) ** 2, axis=1)

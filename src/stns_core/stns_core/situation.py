@@ -45,6 +45,16 @@ def t_result_mask(hist, b: int, parent: int, unpunished: bool = False) -> np.nda
     return m & (hist.reward >= 0.0) if unpunished else m
 
 
+def in_nn_window(members: np.ndarray, recent: np.ndarray | None) -> np.ndarray:
+    """Option ``nn_window``: the ``members`` (history-slot mask) among the newest records
+    (``recent``), or all of them when none is, or without the option (``recent`` None)."""
+    if recent is not None:
+        inside = members & recent
+        if inside.any():
+            return inside
+    return members
+
+
 class Situation:
     """One situation: attributes, instance populations (masks over history slots), shape."""
 
@@ -169,12 +179,7 @@ class Situation:
     def nn_members(self) -> np.ndarray:
         """Slots of the instances the NN test compares: all positives and negatives, or with
         option ``nn_window`` those among the newest records if there are any."""
-        members = self.pos | self.neg
-        if self.nn_recent is not None:
-            recent = members & self.nn_recent
-            if recent.any():
-                return recent
-        return members
+        return in_nn_window(self.pos | self.neg, self.nn_recent)
 
     def _nn_cache(self, x: np.ndarray) -> None:
         members = self.nn_members()
