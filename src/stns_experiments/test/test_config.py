@@ -118,6 +118,20 @@ def test_exp1_improved_yaml_is_exp1_plus_the_four_readings():
         k: v for k, v in d.items() if k not in ("agent", "config_source")}
 
 
+def test_exp3_improved_yaml_is_exp3_plus_the_best_measured_options():
+    """config/exp3-improved.yaml: the learner of the Exp. 3 runs in docs/RESULTS.md (their
+    command lines give the same options with --set), on the paper's Exp. 3 file, 4 sets."""
+    p = resolve("exp3", WS_CONFIG / "exp3-improved.yaml")
+    base = resolve("exp3", WS_CONFIG / "exp3.yaml")
+    assert p["agent"]["overrides"] == {
+        "exploration": "greedy_goal", "greedy_prob": 1.0, "greedy_align_deg": 5.0,
+        "t_result": "unpunished", "plan_stop": "higher_utility", "target_stop": "deepest",
+        "target_lookahead_ticks": 1, "useless": "no_positive_plan"}
+    assert p["agent"]["preset"] == "exp3" and p["trial_sets"] == 4
+    assert {k: v for k, v in p.items() if k not in ("agent", "config_source", "trial_sets")} == {
+        k: v for k, v in base.items() if k not in ("agent", "config_source", "trial_sets")}
+
+
 @pytest.mark.parametrize("exp", ["exp2-sensor", "exp2-actuator"])
 def test_exp2_improved_yaml_is_the_exp2_file_plus_the_readings(exp):
     """config/exp2-*-improved.yaml: the paper's Exp. 2 file, 4000 steps after the fault (as
