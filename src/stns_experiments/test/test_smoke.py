@@ -57,7 +57,6 @@ def test_smoke_exp2(tmp_path, exp, level):
                  str(out / "base"), "--out", str(out2)] + SMALL) == 0
 
 
-
 def test_from_refuses_states_saved_with_other_agent_settings(tmp_path, capsys):
     """The relearning learners would silently keep the saved settings while the from-scratch
     ones took the new: --from refuses, naming the setting."""
