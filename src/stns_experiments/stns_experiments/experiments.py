@@ -482,6 +482,33 @@ def delay_figures(relearn: dict, scratch: dict, block_size: int, tol: float) -> 
             "delay_steps": None if tr is None or ts is None else tr - ts}
 
 
+def exp2_level_entry(level: float, fault: dict, relearn: list[dict], scratch: list[dict],
+                     params: dict, prefault_level: float | None) -> dict:
+    """Exp. 2 figures of one fault level from its relearning and from-scratch trial sets:
+    pooled curves, eliminations, blocks above the pre-fault band and the delay."""
+    tol = params["convergence_tol"]
+    entry: dict[str, Any] = {"level": level, "fault": fault}
+    if relearn:
+        entry["relearn"] = summarise_sets(relearn, params, params["steps"])
+        elim = [r.get("eliminated_after_fault") for r in relearn]
+        gone = [r.get("original_situations_gone") for r in relearn]
+        entry["eliminated_after_fault_mean"] = float(np.mean([e or 0 for e in elim]))
+        entry["sets_without_elimination"] = sum(1 for e in elim if not e)
+        entry["original_situations_gone_mean"] = float(np.mean([g or 0 for g in gone]))
+        entry["situations_before_mean"] = float(np.mean([r.get("situations_before") or 0
+                                                          for r in relearn]))
+        if prefault_level is not None and math.isfinite(prefault_level):
+            curve = np.array(entry["relearn"]["behaviours_to_goal_by_block"], float)
+            worse = ~(np.isfinite(curve) & (curve <= (1 + tol) * prefault_level))
+            entry["blocks_worse_than_prefault"] = int(worse.sum())
+            entry["prefault_level"] = prefault_level
+    if scratch:
+        entry["scratch"] = summarise_sets(scratch, params, params["steps"])
+    if relearn and scratch:
+        entry.update(delay_figures(entry["relearn"], entry["scratch"], params["block_size"], tol))
+    return entry
+
+
 TASK_FUNCTIONS = {"stns": task_stns, "random": task_random, "grid": task_grid,
                   "exp2": task_exp2, "offline": task_offline}
 

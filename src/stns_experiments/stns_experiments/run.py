@@ -18,8 +18,8 @@ from stns_experiments import plots
 from stns_experiments.config import ExperimentError
 from stns_experiments.experiments import (
     PAPER,
-    delay_figures,
     dispatch,
+    exp2_level_entry,
     load_agent,
     make_agent_config,
     make_world,
@@ -308,31 +308,12 @@ def run_exp2(run: Run) -> dict:
     levels: dict[str, Any] = {}
     figures: list[str] = []
     all_relearn: list[dict] = []
-    tol = p["convergence_tol"]
     for level in p["levels"]:
         ln = _level_name(p, level)
         rl = _sorted(res, f"{ln}-relearn-")
         sc = _sorted(res, f"{ln}-scratch-")
         all_relearn += rl
-        entry: dict[str, Any] = {"level": level, "fault": dict([_fault(p, level)])}
-        if rl:
-            entry["relearn"] = summarise_sets(rl, p, p["steps"])
-            elim = [r.get("eliminated_after_fault") for r in rl]
-            gone = [r.get("original_situations_gone") for r in rl]
-            entry["eliminated_after_fault_mean"] = float(np.mean([e or 0 for e in elim]))
-            entry["sets_without_elimination"] = sum(1 for e in elim if not e)
-            entry["original_situations_gone_mean"] = float(np.mean([g or 0 for g in gone]))
-            entry["situations_before_mean"] = float(np.mean([r.get("situations_before") or 0
-                                                              for r in rl]))
-            if base_final is not None and math.isfinite(base_final):
-                curve = np.array(entry["relearn"]["behaviours_to_goal_by_block"], float)
-                worse = ~(np.isfinite(curve) & (curve <= (1 + tol) * base_final))
-                entry["blocks_worse_than_prefault"] = int(worse.sum())
-                entry["prefault_level"] = base_final
-        if sc:
-            entry["scratch"] = summarise_sets(sc, p, p["steps"])
-        if rl and sc:
-            entry.update(delay_figures(entry["relearn"], entry["scratch"], p["block_size"], tol))
+        entry = exp2_level_entry(level, dict([_fault(p, level)]), rl, sc, p, base_final)
         levels[ln] = entry
         if rl or sc:
             series = []

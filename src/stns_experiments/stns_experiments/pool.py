@@ -1,0 +1,294 @@
+"""Pool the trial sets of several runs of one experiment into one larger sample.
+
+    python -m stns_experiments.pool runs/exp3-seed0 runs/exp3-seed1 ... [--json FILE]
+
+Runs made with the same settings on other root seeds (``--seed``), or on other fault levels
+of one seed (Exp. 2 ``--levels``), hold different trial sets of the same experiment. This
+command takes every trial set of every run once, computes the figures of the run summary on
+the union with the same functions (one definition, metrics.py), and prints them as the
+report does, with the per-set mean and standard error of the final level and, for long runs,
+the level over longer final windows. It refuses runs whose settings differ (other than the
+seed, the number of trial sets, the levels and the output options), a trial set held by two
+runs, and runs whose library code differs between their git commits (``--any-code`` to pool
+them anyway, named in the output).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import subprocess
+import sys
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from stns_experiments import metrics as M
+from stns_experiments import report
+from stns_experiments.config import ExperimentError
+from stns_experiments.experiments import exp2_level_entry, random_summary, summarise_sets
+
+# parameters that may differ between pooled runs: they choose which trial sets a run holds
+# or what it writes, not how a trial set is run
+FREE_PARAMS = ("seed", "trial_sets", "levels", "from", "figures", "save_states",
+               "config_source")
+LIBRARY_DIRS = ("src/stns_core/stns_core", "src/rover_sim/rover_sim",
+                "src/stns_experiments/stns_experiments")
+POOLABLE = ("exp1", "exp3", "exp2-sensor", "exp2-actuator")
+
+
+def _read_json(path: Path, what: str) -> Any:
+    try:
+        return json.loads(path.read_text())
+    except FileNotFoundError:
+        raise ExperimentError(f"{what}: {str(path)!r} does not exist") from None
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as e:
+        raise ExperimentError(f"{what}: {str(path)!r} is not readable JSON: {e}") from None
+
+
+def _set_files(folder: Path) -> list[Path]:
+    return sorted(p for p in (folder / "sets").glob("*.json") if p.stem != "random")
+
+
+def load_run(folder: Path) -> dict[str, Any]:
+    """A run folder's config, summary and per-set results (and Exp. 2 pre-training sets)."""
+    folder = Path(folder)
+    cfg = _read_json(folder / "config.json", "run config")
+    summ = _read_json(folder / "summary.json", "run summary")
+    p = cfg.get("params") or {}
+    exp = p.get("experiment")
+    if exp not in POOLABLE:
+        raise ExperimentError(f"{str(folder)!r}: experiment {exp!r} cannot be pooled "
+                              f"(poolable: {', '.join(POOLABLE)})")
+    sets = [_read_json(f, "trial-set result") for f in _set_files(folder)]
+    if not sets:
+        raise ExperimentError(f"{str(folder)!r}: no trial-set results in sets/")
+    run = {"folder": folder, "params": p, "config": cfg, "summary": summ, "sets": sets,
+           "random": None, "base_dir": None, "base_sets": []}
+    rnd = folder / "sets" / "random.json"
+    if rnd.exists():
+        run["random"] = _read_json(rnd, "random-policy result")
+    if exp.startswith("exp2"):
+        base = Path(p["from"]) if p.get("from") else folder / "base"
+        if not base.is_absolute() and not base.exists():
+            # --from is recorded as given, relative to where the run was started
+            base = folder.resolve().parent.parent / base
+        run["base_dir"] = base.resolve()
+        run["base_sets"] = [_read_json(f, "pre-training result") for f in _set_files(base)]
+    return run
+
+
+def _comparable(run: dict) -> dict[str, Any]:
+    p = {k: v for k, v in run["params"].items() if k not in FREE_PARAMS}
+    agent = {k: v for k, v in (run["config"].get("agent_config") or {}).items() if k != "seed"}
+    world = {k: v for k, v in (run["config"].get("world_config") or {}).items() if k != "seed"}
+    return {"params": p, "agent_config": agent, "world_config": world}
+
+
+def _flat(d: Any, prefix: str = "") -> dict[str, Any]:
+    if not isinstance(d, dict):
+        return {prefix.rstrip("."): d}
+    out: dict[str, Any] = {}
+    for k, v in d.items():
+        out.update(_flat(v, f"{prefix}{k}."))
+    return out
+
+
+def check_same_settings(runs: list[dict]) -> None:
+    """Refuse runs whose settings differ in anything but the free parameters."""
+    ref = _flat(_comparable(runs[0]))
+    for run in runs[1:]:
+        got = _flat(_comparable(run))
+        for k in sorted(set(ref) | set(got)):
+            if ref.get(k) != got.get(k):
+                raise ExperimentError(
+                    f"cannot pool {str(runs[0]['folder'])!r} and {str(run['folder'])!r}: "
+                    f"setting {k} is {ref.get(k)!r} in the first and {got.get(k)!r} in the "
+                    f"second")
+
+
+def _unique(runs: list[dict], key: str, label: str) -> list[dict]:
+    """Every trial set once: (root seed, task key) must not be held by two runs."""
+    seen: dict[tuple, Path] = {}
+    out = []
+    for run in runs:
+        for r in run[key]:
+            k = (run["params"]["seed"], r["key"])
+            if k in seen:
+                raise ExperimentError(
+                    f"{label} {r['key']} of root seed {k[0]} is in both {str(seen[k])!r} and "
+                    f"{str(run['folder'])!r}: pooling would count it twice")
+            seen[k] = run["folder"]
+            out.append(r)
+    return out
+
+
+def library_changes(commits: list[str], cwd: Path | None = None) -> list[str] | None:
+    """Library files that differ between the first commit and each other one (git), or None
+    when git cannot tell (no repository, unknown commit)."""
+    commits = [c for c in dict.fromkeys(commits) if c]
+    changed: list[str] = []
+    for other in commits[1:]:
+        try:
+            res = subprocess.run(["git", "diff", "--name-only", commits[0], other, "--",
+                                  *LIBRARY_DIRS], cwd=cwd, capture_output=True, text=True,
+                                 timeout=30)
+        except (OSError, subprocess.SubprocessError):
+            return None
+        if res.returncode != 0:
+            return None
+        changed += [ln for ln in res.stdout.splitlines() if ln.endswith(".py")]
+    return sorted(set(changed))
+
+
+def code_note(runs: list[dict], any_code: bool) -> str:
+    versions = [r["summary"].get("code_version") or {} for r in runs]
+    commits = [v.get("commit") for v in versions]
+    dirty = sorted({f for v in versions for f in v.get("uncommitted", [])
+                    if f.endswith(".py") and f.startswith(LIBRARY_DIRS)})
+    if not all(commits):
+        note = "code: a run has no recorded commit"
+    else:
+        changed = library_changes(commits)
+        if changed is None:
+            note = f"code: commits {', '.join(dict.fromkeys(commits))} (git cannot compare them here)"
+        elif changed:
+            if not any_code:
+                raise ExperimentError(
+                    f"the runs ran on different library code (commits "
+                    f"{', '.join(dict.fromkeys(commits))}; changed: {', '.join(changed)}); "
+                    f"pass --any-code to pool them anyway")
+            note = (f"code: commits {', '.join(dict.fromkeys(commits))}; POOLED ACROSS LIBRARY "
+                    f"CHANGES in {', '.join(changed)}")
+        else:
+            note = (f"code: commits {', '.join(dict.fromkeys(commits))}, the same library code "
+                    f"(git diff of {', '.join(LIBRARY_DIRS)})")
+    if dirty:
+        note += f"; uncommitted library files at run time: {', '.join(dirty)}"
+    return note
+
+
+def window_levels(results: list[dict], params: dict, steps: int) -> dict[str, float]:
+    """Behaviours to goal over the last 1000, 5000 and 10000 steps (those the run holds),
+    pooled from the block counts."""
+    B = params["block_size"]
+    bs = np.array([r["block_behaviours"] for r in results], dtype=np.int64).sum(0)
+    ar = np.array([r["block_arrivals"] for r in results], dtype=np.int64).sum(0)
+    out = {}
+    for w in (params["final_window"], 5000, 10000):
+        if w % B == 0 and w <= steps and str(w) not in out:
+            n = w // B
+            out[str(w)] = float(M.ratio(bs[-n:].sum(), ar[-n:].sum()))
+    return out
+
+
+def per_set_spread(results: list[dict]) -> dict[str, float | None]:
+    vals = np.array([M.ratio(r["final_behaviours"], r["final_arrivals"]) for r in results],
+                    dtype=float)
+    vals = vals[np.isfinite(vals)]
+    if len(vals) == 0:
+        return {"mean": None, "standard_error": None}
+    se = float(vals.std(ddof=1) / math.sqrt(len(vals))) if len(vals) > 1 else None
+    return {"mean": float(vals.mean()), "standard_error": se}
+
+
+def pool(folders: list[Path], any_code: bool = False) -> dict[str, Any]:
+    """The pooled summary of the runs in ``folders`` (same keys as a run's summary.json for
+    the figures it holds, plus ``pooled_from``)."""
+    if not folders:
+        raise ExperimentError("pool: name at least one run folder")
+    runs = [load_run(Path(f)) for f in folders]
+    if len({str(r["folder"].resolve()) for r in runs}) < len(runs):
+        raise ExperimentError("pool: a run folder is named twice")
+    check_same_settings(runs)
+    p = dict(runs[0]["params"])
+    exp, steps = p["experiment"], p["steps"]
+    seeds = sorted({r["params"]["seed"] for r in runs})
+    randoms = {r["params"]["seed"]: r["random"] for r in runs if r["random"]}
+    out: dict[str, Any] = {
+        "experiment": exp, "steps": steps, "block_size": p["block_size"],
+        "final_window": p["final_window"],
+        "pooled_from": {"runs": [str(r["folder"]) for r in runs], "root_seeds": seeds,
+                        "code": code_note(runs, any_code)},
+        "paper": runs[0]["summary"].get("paper", {}),
+    }
+    out.update(random_summary(list(randoms.values())))
+    if exp in ("exp1", "exp3"):
+        sets = _unique(runs, "sets", "trial set")
+        out.update(summarise_sets(sets, p, steps))
+        out["behaviours_to_goal_last"] = window_levels(sets, p, steps)
+        out["final_behaviours_to_goal_per_set_spread"] = per_set_spread(sets)
+        return out
+    # Exp. 2: each pre-training set once (runs of one seed share them: --from, or the same
+    # seeds); relearn / scratch sets per level
+    bases: dict[tuple, dict] = {}
+    for r in runs:
+        for b in r["base_sets"]:
+            bases.setdefault((r["params"]["seed"], b["key"]), b)
+    base_sets = list(bases.values())
+    base_final = (float(M.ratio(sum(r["final_behaviours"] for r in base_sets),
+                                sum(r["final_arrivals"] for r in base_sets)))
+                  if base_sets else None)
+    sets = _unique(runs, "sets", "trial set")
+    levels: dict[str, Any] = {}
+    for level in sorted({float(s["level"]) for s in sets}):
+        rl = [s for s in sets if float(s["level"]) == level and s.get("mode") == "relearn"]
+        sc = [s for s in sets if float(s["level"]) == level and s.get("mode") == "scratch"]
+        name = rl[0]["key"].split("-")[0] if rl else sc[0]["key"].split("-")[0]
+        fault = (rl or sc)[0].get("fault", {})
+        levels[name] = exp2_level_entry(level, fault, rl, sc, p, base_final)
+    out.update({"trial_sets": len(base_sets), "prefault_final_behaviours_to_goal": base_final,
+                "levels": levels})
+    return out
+
+
+def describe(s: dict) -> str:
+    src = s["pooled_from"]
+    lines = [f"### {s['experiment']}: pooled, root seeds {', '.join(map(str, src['root_seeds']))}",
+             "", "Command: `python -m stns_experiments.pool " + " ".join(src["runs"]) + "`", "",
+             f"Runs: {', '.join('`' + r + '`' for r in src['runs'])}; {src['code']}.", ""]
+    if s["experiment"] in ("exp1", "exp3"):
+        lines.append(f"{s['trial_sets']} trial sets x {s['steps']} steps.")
+        lines.append("")
+        lines.append(report.learning_table(s))
+        last = s.get("behaviours_to_goal_last", {})
+        spread = s.get("final_behaviours_to_goal_per_set_spread", {})
+        lines += ["", "Behaviours to goal over the last " + ", ".join(
+            f"{w} steps: {v:.2f}" for w, v in last.items()) + "."]
+        if spread.get("mean") is not None:
+            se = spread.get("standard_error")
+            lines.append(f"Per set, last {s['final_window']} steps: mean {spread['mean']:.2f}"
+                         + ("" if se is None else f", standard error {se:.2f}") + ".")
+    else:
+        level = s.get("prefault_final_behaviours_to_goal")
+        lines.append(f"{s['trial_sets']} pre-fault learners (level "
+                     f"{'-' if level is None else f'{level:.2f}'}); per level the relearning "
+                     f"and from-scratch sets below.")
+        lines.append("")
+        lines.append(report.exp2_table(s))
+    return "\n".join(lines) + "\n"
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(prog="python -m stns_experiments.pool",
+                                 description=__doc__.split("\n\n")[0])
+    ap.add_argument("runs", nargs="+", type=Path, help="run folders of one experiment")
+    ap.add_argument("--json", type=Path, help="also write the pooled summary to this file")
+    ap.add_argument("--any-code", action="store_true",
+                    help="pool runs made on different library code (named in the output)")
+    args = ap.parse_args(argv)
+    try:
+        s = pool(args.runs, any_code=args.any_code)
+    except ExperimentError as e:
+        sys.stderr.write(f"error: {e}\n")
+        return 2
+    sys.stdout.write(describe(s))
+    if args.json:
+        args.json.write_text(json.dumps(s, indent=1, default=str) + "\n")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

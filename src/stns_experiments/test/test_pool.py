@@ -1,0 +1,186 @@
+"""Pooling the trial sets of several runs (stns_experiments.pool) on small synthetic run
+folders with known answers, and on two real smoke runs."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+from stns_experiments.config import ExperimentError
+
+from stns_experiments import pool as P
+
+PARAMS = {"experiment": "exp1", "steps": 400, "block_size": 100, "final_window": 200,
+          "convergence_tol": 0.1, "trailing_window": 200, "random_steps": 60,
+          "max_ticks_per_step": 2000, "world": {"preset": "exp1", "overrides": {}},
+          "agent": {"preset": "exp1", "overrides": {}}, "save_states": True,
+          "figures": False, "config_source": None}
+
+
+def _set(key, behaviours, arrivals, final_window_blocks=2, **extra):
+    fb, fa = sum(behaviours[-final_window_blocks:]), sum(arrivals[-final_window_blocks:])
+    return {"key": key, "block_behaviours": behaviours, "block_arrivals": arrivals,
+            "final_behaviours": fb, "final_arrivals": fa, "success_r": [9, 10],
+            "success_t": [1, 2], "within_two": [3, 4], "situations_final": 6,
+            "wall_seconds": 1.0, "steps_per_second": 400.0, "cpu_seconds": 1.0, **extra}
+
+
+def _write_run(folder, seed, sets, params=None, commit="abc1234", agent_config=None,
+               random=None, base_sets=None):
+    p = dict(PARAMS if params is None else params, seed=seed, trial_sets=len(sets))
+    (folder / "sets").mkdir(parents=True)
+    cfg = {"params": p, "seeds": {}, "command": "stns-experiment ...",
+           "world_config": {"seed": seed, "tick_s": 0.1},
+           "agent_config": agent_config or {"seed": 0, "p_min": 0.1}}
+    (folder / "config.json").write_text(json.dumps(cfg))
+    summ = {"experiment": p["experiment"], "seed": seed, "paper": {},
+            "code_version": {"commit": commit, "uncommitted": []}}
+    (folder / "summary.json").write_text(json.dumps(summ))
+    for s in sets:
+        (folder / "sets" / f"{s['key']}.json").write_text(json.dumps(s))
+    if random is not None:
+        (folder / "sets" / "random.json").write_text(json.dumps(random))
+    if base_sets is not None:
+        (folder / "base" / "sets").mkdir(parents=True)
+        for s in base_sets:
+            (folder / "base" / "sets" / f"{s['key']}.json").write_text(json.dumps(s))
+    return folder
+
+
+@pytest.fixture
+def same_code(monkeypatch):
+    monkeypatch.setattr(P, "library_changes", lambda commits, cwd=None: [])
+
+
+def test_pooled_figures_are_those_of_the_union_of_the_sets(tmp_path, same_code):
+    # seed 0: one set at 3 behaviours per arrival at the end; seed 1: two sets, 2 and 4
+    a = _write_run(tmp_path / "a", 0, [_set("set00", [50, 40, 30, 30], [5, 8, 10, 10])],
+                   random={"steps": 60, "arrivals": 2})
+    b = _write_run(tmp_path / "b", 1, [_set("set00", [60, 40, 20, 20], [2, 10, 10, 10]),
+                                       _set("set01", [40, 40, 40, 40], [4, 10, 10, 10])],
+                   random={"steps": 60, "arrivals": 1})
+    s = P.pool([a, b])
+    assert s["trial_sets"] == 3 and s["pooled_from"]["root_seeds"] == [0, 1]
+    # final window = the last 2 blocks: (60 + 40 + 80) / (20 + 20 + 20)
+    assert s["final_behaviours_to_goal"] == pytest.approx(180 / 60)
+    # pooled block curve: 150/11, 120/28, 90/30, 90/30 -> converged from block 2
+    assert s["behaviours_to_goal_by_block"][0] == pytest.approx(150 / 11)
+    assert s["convergence_step"] == 200
+    # success counts add up over the three sets
+    assert s["success_counts_r"] == [27, 30] and s["within_two_counts"] == [9, 12]
+    # per-set final levels 3, 2, 4: mean 3, standard error 1 / sqrt(3)
+    spread = s["final_behaviours_to_goal_per_set_spread"]
+    assert spread["mean"] == pytest.approx(3.0)
+    assert spread["standard_error"] == pytest.approx(1 / math.sqrt(3))
+    # the random-policy runs of both seeds: 3 arrivals in 120 steps
+    assert s["random_arrivals_per_100"] == pytest.approx(2.5)
+    assert s["behaviours_to_goal_last"] == {"200": pytest.approx(3.0)}
+    text = P.describe(s)
+    assert "3 trial sets x 400 steps" in text and "| behaviours to goal, last 200 steps" in text
+
+
+def test_refuses_runs_with_other_settings_naming_the_setting(tmp_path, same_code):
+    a = _write_run(tmp_path / "a", 0, [_set("set00", [4] * 4, [2] * 4)])
+    b = _write_run(tmp_path / "b", 1, [_set("set00", [4] * 4, [2] * 4)],
+                   agent_config={"seed": 0, "p_min": 0.2})
+    with pytest.raises(ExperimentError, match=r"setting agent_config\.p_min is 0\.1 .* 0\.2"):
+        P.pool([a, b])
+    c = _write_run(tmp_path / "c", 1, [_set("set00", [4] * 4, [2] * 4)],
+                   params=dict(PARAMS, block_size=50))
+    with pytest.raises(ExperimentError, match="setting params.block_size is 100"):
+        P.pool([a, c])
+
+
+def test_refuses_a_trial_set_held_by_two_runs(tmp_path, same_code):
+    a = _write_run(tmp_path / "a", 0, [_set("set00", [4] * 4, [2] * 4)])
+    b = _write_run(tmp_path / "b", 0, [_set("set00", [4] * 4, [2] * 4),
+                                       _set("set01", [4] * 4, [2] * 4)])
+    with pytest.raises(ExperimentError, match="set00 of root seed 0 is in both"):
+        P.pool([a, b])
+    with pytest.raises(ExperimentError, match="named twice"):
+        P.pool([a, a])
+
+
+def test_corrupt_or_missing_files_are_named(tmp_path, same_code):
+    a = _write_run(tmp_path / "a", 0, [_set("set00", [4] * 4, [2] * 4)])
+    (a / "sets" / "set00.json").write_text("{not json")
+    with pytest.raises(ExperimentError, match=r"set00\.json' is not readable JSON"):
+        P.pool([a])
+    with pytest.raises(ExperimentError, match=r"config\.json' does not exist"):
+        P.pool([tmp_path / "nowhere"])
+    assert P.main([str(tmp_path / "nowhere")]) == 2
+
+
+def test_refuses_other_library_code_unless_asked(tmp_path, monkeypatch):
+    a = _write_run(tmp_path / "a", 0, [_set("set00", [4] * 4, [2] * 4)], commit="aaaaaaa")
+    b = _write_run(tmp_path / "b", 1, [_set("set00", [4] * 4, [2] * 4)], commit="bbbbbbb")
+    monkeypatch.setattr(P, "library_changes",
+                        lambda commits, cwd=None: ["src/stns_core/stns_core/agent.py"])
+    with pytest.raises(ExperimentError, match=r"different library code .*agent\.py"):
+        P.pool([a, b])
+    s = P.pool([a, b], any_code=True)
+    assert "POOLED ACROSS LIBRARY CHANGES" in s["pooled_from"]["code"]
+
+
+def test_git_that_cannot_tell_is_not_taken_for_the_same_code():
+    assert P.library_changes(["0000000000", "1111111111"]) is None
+
+
+def test_exp2_levels_of_one_seed_from_two_runs_share_their_pre_training(tmp_path, same_code):
+    exp2 = dict(PARAMS, experiment="exp2-sensor", block_size=250, steps=1000,
+                final_window=500, pretrain_steps=1000, fault="goal_sensor_rotation_deg",
+                scratch=True)
+    base = [_set("set00", [50, 20], [10, 10], final_window_blocks=1),
+            _set("set01", [30, 20], [10, 10], final_window_blocks=1)]
+
+    def level_sets(level, relearn, scratch):
+        out = []
+        for mode, counts in (("relearn", relearn), ("scratch", scratch)):
+            for i, bs in enumerate(counts):
+                out.append(_set(f"{level:g}deg-{mode}-{i:02d}", bs, [10] * 4, mode=mode,
+                                level=level, eliminated_after_fault=i))
+        return out
+
+    # pre-fault level 40 / 20 = 2.0; scratch ends at 2.1 at 10 degrees, and relearning is
+    # within 1.1 x 2.1 from block 2 on, scratch from block 1: delay +250 steps
+    a = _write_run(tmp_path / "a", 0, level_sets(10.0, [[60, 25, 21, 21], [60, 25, 21, 21]],
+                                                 [[80, 21, 21, 21], [80, 21, 21, 21]]),
+                   params=exp2, base_sets=base)
+    b_params = dict(exp2, **{"from": str(a / "base")})
+    b = _write_run(tmp_path / "b", 0, level_sets(20.0, [[90, 21, 21, 21]] * 2,
+                                                 [[90, 21, 21, 21]] * 2), params=b_params)
+    s = P.pool([a, b])
+    assert s["trial_sets"] == 2 and s["prefault_final_behaviours_to_goal"] == pytest.approx(2.0)
+    ten, twenty = s["levels"]["10deg"], s["levels"]["20deg"]
+    assert ten["relearn"]["trial_sets"] == 2 and twenty["scratch"]["trial_sets"] == 2
+    assert ten["delay_steps"] == 250 and twenty["delay_steps"] == 0
+    # blocks above 1.1 x 2.0: 6.0 and 2.5 at 10 degrees, 9.0 at 20 degrees
+    assert ten["blocks_worse_than_prefault"] == 2 and twenty["blocks_worse_than_prefault"] == 1
+    assert ten["eliminated_after_fault_mean"] == 0.5 and ten["sets_without_elimination"] == 1
+    assert "| 10deg |" in P.describe(s)
+
+
+def test_pooling_one_real_run_gives_its_own_summary_and_two_seeds_add_up(tmp_path):
+    pytest.importorskip("rover_sim")
+    pytest.importorskip("stns_core")
+    from stns_experiments.cli import main
+    small = ["exp1", "--steps", "200", "--trial-sets", "2", "--jobs", "1", "--quiet",
+             "--no-figures", "--set", "random_steps=60"]
+    runs = []
+    for seed in (0, 1):
+        out = tmp_path / f"seed{seed}"
+        assert main(small + ["--seed", str(seed), "--out", str(out)]) == 0
+        runs.append(out)
+    own = json.loads((runs[0] / "summary.json").read_text())
+    one = P.pool([runs[0]])
+    for k in ("final_behaviours_to_goal", "convergence_step", "behaviours_to_goal_by_block",
+              "success_counts_r", "success_counts_t", "within_two_counts",
+              "random_arrivals_per_100"):
+        np.testing.assert_equal(one[k], own[k], err_msg=k)  # NaN blocks compare equal
+    both = P.pool(runs)
+    second = json.loads((runs[1] / "summary.json").read_text())
+    assert both["trial_sets"] == 4
+    assert both["success_counts_t"] == [a + b for a, b in zip(own["success_counts_t"],
+                                                               second["success_counts_t"], strict=True)]
