@@ -80,9 +80,20 @@ def load_run(folder: Path) -> dict[str, Any]:
     return run
 
 
+def _agent_defaults() -> dict[str, Any]:
+    """The learner's option defaults. A setting missing from an older run's config.json is an
+    option added later, whose default is, by the project's rule, the learner as it was."""
+    try:
+        from stns_core import StnsConfig
+    except ImportError:  # pragma: no cover - depends on the workspace build
+        return {}
+    return StnsConfig().to_dict()
+
+
 def _comparable(run: dict) -> dict[str, Any]:
     p = {k: v for k, v in run["params"].items() if k not in FREE_PARAMS}
-    agent = {k: v for k, v in (run["config"].get("agent_config") or {}).items() if k != "seed"}
+    recorded = run["config"].get("agent_config") or {}
+    agent = {k: v for k, v in {**_agent_defaults(), **recorded}.items() if k != "seed"}
     world = {k: v for k, v in (run["config"].get("world_config") or {}).items() if k != "seed"}
     return {"params": p, "agent_config": agent, "world_config": world}
 

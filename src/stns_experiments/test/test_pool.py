@@ -93,6 +93,18 @@ def test_refuses_runs_with_other_settings_naming_the_setting(tmp_path, same_code
         P.pool([a, c])
 
 
+def test_an_option_missing_from_an_older_run_counts_as_its_default(tmp_path, same_code):
+    pytest.importorskip("stns_core")
+    old = _write_run(tmp_path / "old", 0, [_set("set00", [4] * 4, [2] * 4)])
+    same = _write_run(tmp_path / "same", 1, [_set("set00", [4] * 4, [2] * 4)],
+                      agent_config={"seed": 0, "p_min": 0.1, "nn_window": 0})
+    other = _write_run(tmp_path / "other", 2, [_set("set00", [4] * 4, [2] * 4)],
+                       agent_config={"seed": 0, "p_min": 0.1, "nn_window": 300})
+    assert P.pool([old, same])["trial_sets"] == 2
+    with pytest.raises(ExperimentError, match="agent_config.nn_window is 0 in the first and 300"):
+        P.pool([old, other])
+
+
 def test_refuses_a_trial_set_held_by_two_runs(tmp_path, same_code):
     a = _write_run(tmp_path / "a", 0, [_set("set00", [4] * 4, [2] * 4)])
     b = _write_run(tmp_path / "b", 0, [_set("set00", [4] * 4, [2] * 4),
