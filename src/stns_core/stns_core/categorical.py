@@ -105,6 +105,11 @@ class Learner:
             h = self.hist
             sel = h.valid & (h.b >= 0)
             lut = self.lut()
+            if self.cfg.margin_stn == "no_positives" and self.order:
+                # option margin_stn: a positive instance classified into the margin was bitten
+                # out of its situation; its stored success no longer speaks for the margin
+                pos = np.logical_or.reduce([sit.pos for sit in self.order])
+                sel &= (lut[h.s] != 0) | ~pos
             n_nodes = len(self.order) + 2
             s = lut[h.s[sel]]
             sn = np.where(h.terminal[sel], n_nodes - 1, lut[h.s_next[sel]])
