@@ -3,6 +3,7 @@
 import numpy as np
 import pytest
 from conftest import make_learner, ring
+from stns_core.classifier import MARGIN
 from stns_core.history import ARRIVAL
 
 GOAL_PTS = ring((0.0, 0.0), radius=2.0, n=8)[[0, 4, 2, 6, 1, 5, 3, 7]]
@@ -429,3 +430,29 @@ def test_nn_window_also_bounds_the_bitten_reach():
         lr.add_record(np.array([-3.0, 0.0]), 0, 0, -1.0, np.array([40.0, 40.0]), 0, False)
         out[window] = lr.reach_accepts(r.id, np.array([-2.45, 0.0]))
     assert out == {0: True, 2: False}
+
+
+def test_margin_stn_no_positives_leaves_bitten_out_successes_out_of_the_margin_node():
+    """With the NN window a recent miss bites the old successes out of their R-situation and
+    re-labelling puts them into the margin. By default their stored goal arrivals then count
+    as the margin node's "behaviour 0 reaches the goal"; margin_stn="no_positives" leaves
+    those positive instances out, and keeps every other margin record."""
+    stns = {}
+    for opt in ("all", "no_positives"):
+        lr = make_learner(n_init_r=3, n_min_r=3, nn_window=3, margin_stn=opt)
+        for k in range(8):
+            add_goal_record(lr, k)  # successes on a ring of radius 2
+        (r,) = lr.order
+        miss = GOAL_PTS[0] * 0.95
+        lr.add_record(miss, r.id, 0, -1.0, np.array([40.0, 40.0]), 0, False)
+        for _ in range(2):  # other behaviours elsewhere: the old successes leave the window
+            lr.add_record(np.array([30.0, 0.0]), 0, 1, 0.0, np.array([31.0, 0.0]), 0, False)
+        lr.relabel()
+        assert lr.classify(GOAL_PTS[0]) == MARGIN and r.pos.sum() == 8
+        stns[opt] = lr.stn()
+    every, kept = stns["all"], stns["no_positives"]
+    # behaviour 0 from the margin: the 8 old arrivals and the miss, or the miss alone
+    assert every.counts[0, 0].sum() == 9 and every.p[0, 0, every.goal] == pytest.approx(8 / 9)
+    assert kept.counts[0, 0].sum() == 1 and kept.p[0, 0, kept.goal] == 0.0
+    # the margin's other records count either way
+    assert every.counts[0, 1].sum() == kept.counts[0, 1].sum() == 2
