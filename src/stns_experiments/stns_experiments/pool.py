@@ -48,8 +48,20 @@ def _read_json(path: Path, what: str) -> Any:
         raise ExperimentError(f"{what}: {str(path)!r} is not readable JSON: {e}") from None
 
 
+SET_KEYS = ("key", "block_behaviours", "block_arrivals", "final_behaviours", "final_arrivals")
+
+
 def _set_files(folder: Path) -> list[Path]:
     return sorted(p for p in (folder / "sets").glob("*.json") if p.stem != "random")
+
+
+def _read_set(path: Path, what: str, exp2: bool = False) -> dict:
+    r = _read_json(path, what)
+    need = SET_KEYS + (("mode", "level") if exp2 else ())
+    missing = [k for k in need if not isinstance(r, dict) or k not in r]
+    if missing:
+        raise ExperimentError(f"{what}: {str(path)!r} lacks {', '.join(missing)}")
+    return r
 
 
 def load_run(folder: Path) -> dict[str, Any]:
@@ -62,7 +74,8 @@ def load_run(folder: Path) -> dict[str, Any]:
     if exp not in POOLABLE:
         raise ExperimentError(f"{str(folder)!r}: experiment {exp!r} cannot be pooled "
                               f"(poolable: {', '.join(POOLABLE)})")
-    sets = [_read_json(f, "trial-set result") for f in _set_files(folder)]
+    sets = [_read_set(f, "trial-set result", str(exp).startswith("exp2"))
+            for f in _set_files(folder)]
     if not sets:
         raise ExperimentError(f"{str(folder)!r}: no trial-set results in sets/")
     run = {"folder": folder, "params": p, "config": cfg, "summary": summ, "sets": sets,
@@ -76,7 +89,7 @@ def load_run(folder: Path) -> dict[str, Any]:
             # --from is recorded as given, relative to where the run was started
             base = folder.resolve().parent.parent / base
         run["base_dir"] = base.resolve()
-        run["base_sets"] = [_read_json(f, "pre-training result") for f in _set_files(base)]
+        run["base_sets"] = [_read_set(f, "pre-training result") for f in _set_files(base)]
     return run
 
 
@@ -136,10 +149,19 @@ def _unique(runs: list[dict], key: str, label: str) -> list[dict]:
     return out
 
 
+def _workspace() -> Path | None:
+    """The git workspace this package runs from (where the runs' commits were recorded)."""
+    for d in Path(__file__).resolve().parents:
+        if (d / ".git").exists():
+            return d
+    return None
+
+
 def library_changes(commits: list[str], cwd: Path | None = None) -> list[str] | None:
     """Library files that differ between the first commit and each other one (git), or None
     when git cannot tell (no repository, unknown commit)."""
     commits = [c for c in dict.fromkeys(commits) if c]
+    cwd = cwd or _workspace()
     changed: list[str] = []
     for other in commits[1:]:
         try:

@@ -123,6 +123,9 @@ def test_corrupt_or_missing_files_are_named(tmp_path, same_code):
     with pytest.raises(ExperimentError, match=r"config\.json' does not exist"):
         P.pool([tmp_path / "nowhere"])
     assert P.main([str(tmp_path / "nowhere")]) == 2
+    (a / "sets" / "set00.json").write_text(json.dumps({"key": "set00", "block_arrivals": [1]}))
+    with pytest.raises(ExperimentError, match="lacks block_behaviours, final_behaviours"):
+        P.pool([a])
 
 
 def test_refuses_other_library_code_unless_asked(tmp_path, monkeypatch):
