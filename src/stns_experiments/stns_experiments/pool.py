@@ -36,6 +36,9 @@ FREE_PARAMS = ("seed", "trial_sets", "levels", "from", "figures", "save_states",
                "config_source")
 LIBRARY_DIRS = ("src/stns_core/stns_core", "src/rover_sim/rover_sim",
                 "src/stns_experiments/stns_experiments")
+# modules that only summarise, print or draw finished runs: no trial set runs through them
+REPORT_ONLY = ("stns_experiments/pool.py", "stns_experiments/report.py",
+               "stns_experiments/plots.py")
 POOLABLE = ("exp1", "exp3", "exp2-sensor", "exp2-actuator")
 
 
@@ -158,8 +161,8 @@ def _workspace() -> Path | None:
 
 
 def library_changes(commits: list[str], cwd: Path | None = None) -> list[str] | None:
-    """Library files that differ between the first commit and each other one (git), or None
-    when git cannot tell (no repository, unknown commit)."""
+    """Library files that differ between the first commit and each other one (git), the
+    report-only modules aside, or None when git cannot tell (no repository, unknown commit)."""
     commits = [c for c in dict.fromkeys(commits) if c]
     cwd = cwd or _workspace()
     changed: list[str] = []
@@ -172,7 +175,8 @@ def library_changes(commits: list[str], cwd: Path | None = None) -> list[str] | 
             return None
         if res.returncode != 0:
             return None
-        changed += [ln for ln in res.stdout.splitlines() if ln.endswith(".py")]
+        changed += [ln for ln in res.stdout.splitlines()
+                    if ln.endswith(".py") and not ln.endswith(REPORT_ONLY)]
     return sorted(set(changed))
 
 
@@ -180,7 +184,8 @@ def code_note(runs: list[dict], any_code: bool) -> str:
     versions = [r["summary"].get("code_version") or {} for r in runs]
     commits = [v.get("commit") for v in versions]
     dirty = sorted({f for v in versions for f in v.get("uncommitted", [])
-                    if f.endswith(".py") and f.startswith(LIBRARY_DIRS)})
+                    if f.endswith(".py") and f.startswith(LIBRARY_DIRS)
+                    and not f.endswith(REPORT_ONLY)})
     if not all(commits):
         note = "code: a run has no recorded commit"
     else:

@@ -5,6 +5,8 @@ from __future__ import annotations
 
 import json
 import math
+import shutil
+import subprocess
 
 import numpy as np
 import pytest
@@ -139,8 +141,41 @@ def test_refuses_other_library_code_unless_asked(tmp_path, monkeypatch):
     assert "POOLED ACROSS LIBRARY CHANGES" in s["pooled_from"]["code"]
 
 
-def test_git_that_cannot_tell_is_not_taken_for_the_same_code():
-    assert P.library_changes(["0000000000", "1111111111"]) is None
+def test_git_that_cannot_tell_is_not_taken_for_the_same_code(tmp_path):
+    assert P.library_changes(["0000000000", "1111111111"], cwd=tmp_path) is None
+
+
+def test_library_changes_between_commits_leave_out_the_report_only_modules(tmp_path):
+    if shutil.which("git") is None:
+        pytest.skip("git is not installed")
+
+    def git(*args):
+        out = subprocess.run(["git", "-c", "user.name=t", "-c", "user.email=t@t", *args],
+                             cwd=tmp_path, capture_output=True, text=True, check=True)
+        return out.stdout.strip()
+
+    pkg = tmp_path / "src" / "stns_experiments" / "stns_experiments"
+    core = tmp_path / "src" / "stns_core" / "stns_core"
+    pkg.mkdir(parents=True)
+    core.mkdir(parents=True)
+    git("init", "-q")
+    for f in (pkg / "pool.py", pkg / "experiments.py", core / "agent.py"):
+        f.write_text("x = 1\n")
+    git("add", "-A")
+    git("commit", "-qm", "a")
+    first = git("rev-parse", "HEAD")
+    (pkg / "pool.py").write_text("x = 2\n")
+    (tmp_path / "README.md").write_text("docs\n")
+    git("add", "-A")
+    git("commit", "-qm", "b")
+    second = git("rev-parse", "HEAD")
+    assert P.library_changes([first, second], cwd=tmp_path) == []
+    (core / "agent.py").write_text("x = 3\n")
+    git("add", "-A")
+    git("commit", "-qm", "c")
+    third = git("rev-parse", "HEAD")
+    assert P.library_changes([first, second, third], cwd=tmp_path) == [
+        "src/stns_core/stns_core/agent.py"]
 
 
 def test_exp2_levels_of_one_seed_from_two_runs_share_their_pre_training(tmp_path, same_code):
