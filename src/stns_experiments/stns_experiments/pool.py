@@ -58,12 +58,26 @@ def _set_files(folder: Path) -> list[Path]:
     return sorted(p for p in (folder / "sets").glob("*.json") if p.stem != "random")
 
 
+def _is_count(v: Any) -> bool:
+    return isinstance(v, int) and not isinstance(v, bool) and v >= 0
+
+
 def _read_set(path: Path, what: str, exp2: bool = False) -> dict:
     r = _read_json(path, what)
     need = SET_KEYS + (("mode", "level") if exp2 else ())
     missing = [k for k in need if not isinstance(r, dict) or k not in r]
     if missing:
         raise ExperimentError(f"{what}: {str(path)!r} lacks {', '.join(missing)}")
+    for k in ("block_behaviours", "block_arrivals"):
+        if not isinstance(r[k], list) or not all(_is_count(v) for v in r[k]):
+            raise ExperimentError(f"{what}: {str(path)!r}: {k} must be a list of counts, "
+                                  f"got {r[k]!r}")
+    for k in ("final_behaviours", "final_arrivals"):
+        if not _is_count(r[k]):
+            raise ExperimentError(f"{what}: {str(path)!r}: {k} must be a count, got {r[k]!r}")
+    if exp2 and (isinstance(r["level"], bool) or not isinstance(r["level"], int | float)):
+        raise ExperimentError(f"{what}: {str(path)!r}: level must be a number, "
+                              f"got {r['level']!r}")
     return r
 
 
@@ -249,7 +263,7 @@ def pool(folders: list[Path], any_code: bool = False) -> dict[str, Any]:
         "experiment": exp, "steps": steps, "block_size": p["block_size"],
         "final_window": p["final_window"],
         "pooled_from": {"runs": [str(r["folder"]) for r in runs], "root_seeds": seeds,
-                        "code": code_note(runs, any_code)},
+                        "code": code_note(runs, any_code), "any_code": any_code},
         "paper": runs[0]["summary"].get("paper", {}),
     }
     out.update(random_summary(list(randoms.values())))
@@ -285,7 +299,8 @@ def pool(folders: list[Path], any_code: bool = False) -> dict[str, Any]:
 def describe(s: dict) -> str:
     src = s["pooled_from"]
     lines = [f"### {s['experiment']}: pooled, root seeds {', '.join(map(str, src['root_seeds']))}",
-             "", "Command: `python -m stns_experiments.pool " + " ".join(src["runs"]) + "`", "",
+             "", "Command: `python -m stns_experiments.pool "
+             + ("--any-code " if src.get("any_code") else "") + " ".join(src["runs"]) + "`", "",
              f"Runs: {', '.join('`' + r + '`' for r in src['runs'])}; {src['code']}.", ""]
     if s["experiment"] in ("exp1", "exp3"):
         lines.append(f"{s['trial_sets']} trial sets x {s['steps']} steps.")
@@ -324,7 +339,11 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     sys.stdout.write(describe(s))
     if args.json:
-        args.json.write_text(json.dumps(s, indent=1, default=str) + "\n")
+        try:
+            args.json.write_text(json.dumps(s, indent=1, default=str) + "\n")
+        except OSError as e:
+            sys.stderr.write(f"error: --json {str(args.json)!r}: {e}\n")
+            return 2
     return 0
 
 

@@ -128,6 +128,11 @@ def test_corrupt_or_missing_files_are_named(tmp_path, same_code):
     (a / "sets" / "set00.json").write_text(json.dumps({"key": "set00", "block_arrivals": [1]}))
     with pytest.raises(ExperimentError, match="lacks block_behaviours, final_behaviours"):
         P.pool([a])
+    bad = _set("set00", [4, 4, -1, 4], [2] * 4)
+    (a / "sets" / "set00.json").write_text(json.dumps(bad))
+    with pytest.raises(ExperimentError, match=r"block_behaviours must be a list of counts, "
+                                              r"got \[4, 4, -1, 4\]"):
+        P.pool([a])
 
 
 def test_refuses_other_library_code_unless_asked(tmp_path, monkeypatch):
@@ -139,6 +144,7 @@ def test_refuses_other_library_code_unless_asked(tmp_path, monkeypatch):
         P.pool([a, b])
     s = P.pool([a, b], any_code=True)
     assert "POOLED ACROSS LIBRARY CHANGES" in s["pooled_from"]["code"]
+    assert "pool --any-code " in P.describe(s)  # the printed command repeats the run
 
 
 def test_git_that_cannot_tell_is_not_taken_for_the_same_code(tmp_path):
