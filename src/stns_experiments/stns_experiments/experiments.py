@@ -392,6 +392,15 @@ def pooled(results: list[dict], key: str) -> tuple[int, int]:
     return num, den
 
 
+def final_level(results: list[dict]) -> float | None:
+    """Behaviours to goal over the final window, pooled over trial-set results (None when
+    there are none)."""
+    if not results:
+        return None
+    return float(M.ratio(sum(r["final_behaviours"] for r in results),
+                         sum(r["final_arrivals"] for r in results)))
+
+
 def summarise_sets(results: list[dict], params: dict, steps: int) -> dict:
     """Pooled figures of a group of trial-set results with the same block layout."""
     B = params["block_size"]
@@ -401,9 +410,7 @@ def summarise_sets(results: list[dict], params: dict, steps: int) -> dict:
     ar = np.array([r["block_arrivals"] for r in results], dtype=np.int64)
     curve = M.ratio(bs.sum(0), ar.sum(0))
     per_set = M.ratio(bs, ar)
-    fb = sum(r["final_behaviours"] for r in results)
-    fa = sum(r["final_arrivals"] for r in results)
-    final = float(M.ratio(fb, fa))
+    final = final_level(results)
     tol, tw = params["convergence_tol"], params["trailing_window"]
     conv = M.convergence_block(curve, final, B, tol)
     conv_tr = M.convergence_trailing(bs.sum(0), ar.sum(0), final, B, tw, tol)

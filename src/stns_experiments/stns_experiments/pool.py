@@ -28,7 +28,13 @@ import numpy as np
 from stns_experiments import metrics as M
 from stns_experiments import report
 from stns_experiments.config import ExperimentError
-from stns_experiments.experiments import exp2_level_entry, random_summary, summarise_sets
+from stns_experiments.experiments import (
+    exp2_level_entry,
+    final_level,
+    random_summary,
+    summarise_sets,
+)
+from stns_experiments.runner import workspace_root
 
 # parameters that may differ between pooled runs: they choose which trial sets a run holds
 # or what it writes, not how a trial set is run
@@ -166,19 +172,11 @@ def _unique(runs: list[dict], key: str, label: str) -> list[dict]:
     return out
 
 
-def _workspace() -> Path | None:
-    """The git workspace this package runs from (where the runs' commits were recorded)."""
-    for d in Path(__file__).resolve().parents:
-        if (d / ".git").exists():
-            return d
-    return None
-
-
 def library_changes(commits: list[str], cwd: Path | None = None) -> list[str] | None:
     """Library files that differ between the first commit and each other one (git), the
     report-only modules aside, or None when git cannot tell (no repository, unknown commit)."""
     commits = [c for c in dict.fromkeys(commits) if c]
-    cwd = cwd or _workspace()
+    cwd = cwd or workspace_root()  # where the runs' commits were recorded
     changed: list[str] = []
     for other in commits[1:]:
         try:
@@ -236,9 +234,9 @@ def window_levels(results: list[dict], params: dict, steps: int) -> dict[str, fl
     return out
 
 
-def per_set_spread(results: list[dict]) -> dict[str, float | None]:
-    vals = np.array([M.ratio(r["final_behaviours"], r["final_arrivals"]) for r in results],
-                    dtype=float)
+def per_set_spread(per_set_final: list[float]) -> dict[str, float | None]:
+    """Mean and standard error of the trial sets' own final levels."""
+    vals = np.array(per_set_final, dtype=float)
     vals = vals[np.isfinite(vals)]
     if len(vals) == 0:
         return {"mean": None, "standard_error": None}
@@ -271,7 +269,8 @@ def pool(folders: list[Path], any_code: bool = False) -> dict[str, Any]:
         sets = _unique(runs, "sets", "trial set")
         out.update(summarise_sets(sets, p, steps))
         out["behaviours_to_goal_last"] = window_levels(sets, p, steps)
-        out["final_behaviours_to_goal_per_set_spread"] = per_set_spread(sets)
+        out["final_behaviours_to_goal_per_set_spread"] = per_set_spread(
+            out["final_behaviours_to_goal_per_set"])
         return out
     # Exp. 2: each pre-training set once (runs of one seed share them: --from, or the same
     # seeds); relearn / scratch sets per level
@@ -280,9 +279,7 @@ def pool(folders: list[Path], any_code: bool = False) -> dict[str, Any]:
         for b in r["base_sets"]:
             bases.setdefault((r["params"]["seed"], b["key"]), b)
     base_sets = list(bases.values())
-    base_final = (float(M.ratio(sum(r["final_behaviours"] for r in base_sets),
-                                sum(r["final_arrivals"] for r in base_sets)))
-                  if base_sets else None)
+    base_final = final_level(base_sets)
     sets = _unique(runs, "sets", "trial set")
     levels: dict[str, Any] = {}
     for level in sorted({float(s["level"]) for s in sets}):

@@ -20,6 +20,7 @@ from stns_experiments.experiments import (
     PAPER,
     dispatch,
     exp2_level_entry,
+    final_level,
     load_agent,
     make_agent_config,
     make_world,
@@ -27,7 +28,7 @@ from stns_experiments.experiments import (
     situations_of,
     summarise_sets,
 )
-from stns_experiments.runner import run_tasks, set_seeds, write_json
+from stns_experiments.runner import run_tasks, set_seeds, workspace_root, write_json
 
 log = logging.getLogger("stns_experiments")
 
@@ -120,11 +121,8 @@ def code_version() -> dict[str, Any]:
     """Git commit of the workspace and whether the two libraries had uncommitted changes."""
     import subprocess
 
-    ws = Path(__file__).resolve()
-    for d in ws.parents:
-        if (d / ".git").exists():
-            break
-    else:
+    d = workspace_root()
+    if d is None:
         return {}
     try:
         head = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=d, capture_output=True,
@@ -284,9 +282,7 @@ def run_exp2(run: Run) -> dict:
         res = run.tasks(tasks, f"{p['experiment']} pre-training")
         base_results = _sorted(res, "set")
         base_states = [str(base_dir / "states" / f"{r['key']}.npz") for r in base_results]
-    base_final = (float(M.ratio(sum(r["final_behaviours"] for r in base_results),
-                                sum(r["final_arrivals"] for r in base_results)))
-                  if base_results else None)
+    base_final = final_level(base_results)
     relearn_seeds = set_seeds(p["seed"], n, STREAM_FAULT)
     scratch_seeds = set_seeds(p["seed"], n, STREAM_SCRATCH)
     _write_config(run, {"pretrain": seeds, "relearn": relearn_seeds, "scratch": scratch_seeds,

@@ -236,6 +236,14 @@ def _call_inline(fn, task, prog):
         return task["key"], None, str(e)
 
 
+def workspace_root() -> Path | None:
+    """The git workspace this package runs from (symlink install resolved), or None."""
+    for d in Path(__file__).resolve().parents:
+        if (d / ".git").exists():
+            return d
+    return None
+
+
 def write_json(path: Path, data: Any) -> None:
     path = Path(path)
     tmp = path.with_suffix(path.suffix + ".tmp")
