@@ -202,18 +202,17 @@ def code_note(runs: list[dict], any_code: bool) -> str:
         note = "code: a run has no recorded commit"
     else:
         changed = library_changes(commits)
+        named = ", ".join(dict.fromkeys(commits))
         if changed is None:
-            note = f"code: commits {', '.join(dict.fromkeys(commits))} (git cannot compare them here)"
+            note = f"code: commits {named} (git cannot compare them here)"
         elif changed:
             if not any_code:
                 raise ExperimentError(
-                    f"the runs ran on different library code (commits "
-                    f"{', '.join(dict.fromkeys(commits))}; changed: {', '.join(changed)}); "
-                    f"pass --any-code to pool them anyway")
-            note = (f"code: commits {', '.join(dict.fromkeys(commits))}; POOLED ACROSS LIBRARY "
-                    f"CHANGES in {', '.join(changed)}")
+                    f"the runs ran on different library code (commits {named}; changed: "
+                    f"{', '.join(changed)}); pass --any-code to pool them anyway")
+            note = f"code: commits {named}; POOLED ACROSS LIBRARY CHANGES in {', '.join(changed)}"
         else:
-            note = (f"code: commits {', '.join(dict.fromkeys(commits))}, the same library code "
+            note = (f"code: commits {named}, the same library code "
                     f"(git diff of {', '.join(LIBRARY_DIRS)})")
     if dirty:
         note += f"; uncommitted library files at run time: {', '.join(dirty)}"
@@ -285,9 +284,9 @@ def pool(folders: list[Path], any_code: bool = False) -> dict[str, Any]:
     for level in sorted({float(s["level"]) for s in sets}):
         rl = [s for s in sets if float(s["level"]) == level and s.get("mode") == "relearn"]
         sc = [s for s in sets if float(s["level"]) == level and s.get("mode") == "scratch"]
-        name = rl[0]["key"].split("-")[0] if rl else sc[0]["key"].split("-")[0]
-        fault = (rl or sc)[0].get("fault", {})
-        levels[name] = exp2_level_entry(level, fault, rl, sc, p, base_final)
+        first = (rl or sc)[0]
+        levels[first["key"].split("-")[0]] = exp2_level_entry(
+            level, first.get("fault", {}), rl, sc, p, base_final)
     out.update({"trial_sets": len(base_sets), "prefault_final_behaviours_to_goal": base_final,
                 "levels": levels})
     return out
