@@ -34,7 +34,7 @@ from stns_experiments.experiments import (
     random_summary,
     summarise_sets,
 )
-from stns_experiments.runner import workspace_root
+from stns_experiments.runner import workspace_root, write_json
 
 # parameters that may differ between pooled runs: they choose which trial sets a run holds
 # or what it writes, not how a trial set is run
@@ -336,7 +336,7 @@ def main(argv: list[str] | None = None) -> int:
     sys.stdout.write(describe(s))
     if args.json:
         try:
-            args.json.write_text(json.dumps(s, indent=1, default=str) + "\n")
+            write_json(args.json, s)  # as summary.json: atomic, no bare NaN
         except OSError as e:
             sys.stderr.write(f"error: --json {str(args.json)!r}: {e}\n")
             return 2

@@ -83,6 +83,21 @@ def test_pooled_figures_are_those_of_the_union_of_the_sets(tmp_path, same_code):
     assert "3 trial sets x 400 steps" in text and "| behaviours to goal, last 200 steps" in text
 
 
+def test_json_file_is_strict_json_like_a_run_summary(tmp_path, same_code, capsys):
+    """A block without any arrival has no level (NaN in memory); --json writes it as null,
+    as summary.json does, so strict JSON readers open the pooled file too."""
+    a = _write_run(tmp_path / "a", 0, [_set("set00", [50, 40, 30, 30], [0, 8, 10, 10])])
+    out = tmp_path / "pooled.json"
+    assert P.main([str(a), "--json", str(out)]) == 0
+
+    def refuse(name):
+        raise ValueError(f"not strict JSON: {name}")
+
+    s = json.loads(out.read_text(), parse_constant=refuse)
+    assert s["behaviours_to_goal_by_block"][0] is None
+    assert s["behaviours_to_goal_by_block"][1] == pytest.approx(5.0)
+
+
 def test_refuses_runs_with_other_settings_naming_the_setting(tmp_path, same_code):
     a = _write_run(tmp_path / "a", 0, [_set("set00", [4] * 4, [2] * 4)])
     b = _write_run(tmp_path / "b", 1, [_set("set00", [4] * 4, [2] * 4)],
