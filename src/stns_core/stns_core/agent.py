@@ -63,6 +63,7 @@ class _Running:
     prev_x: np.ndarray | None = None  # input of the previous tick (look-ahead extrapolation)
     greedy: bool = False  # an exploration step chosen by exploration="greedy_goal"
     root: int = 0  # margin_plan="nearest_r": the R-situation the plan started from (0: none)
+    approached: bool = False  # miss_stop: the target's centre has come nearer at least once
 
     def to_dict(self) -> dict[str, Any]:
         d = {
@@ -75,6 +76,8 @@ class _Running:
             d["greedy"] = True
         if self.root:
             d["root"] = self.root
+        if self.approached:
+            d["approached"] = True
         return d
 
     @classmethod
@@ -255,7 +258,7 @@ class StnsAgent:
     def _planned_stop(self, run: _Running, x: np.ndarray, s_now: int) -> bool:
         """Does a planned behaviour with a situation as target stop at this tick? The paper's
         rule (the first tick in the target) and the readings ``target_lookahead_ticks``,
-        ``target_stop`` and ``plan_stop`` (algorithm.md, "Readings")."""
+        ``target_stop``, ``plan_stop`` and ``miss_stop`` (algorithm.md, "Readings")."""
         cfg = self.config
         if run.la_count >= 0 and s_now != run.target:
             return True  # went on inside the target, then left it: the step ends here
@@ -263,12 +266,30 @@ class StnsAgent:
                 and s_now not in (0, run.s0, run.target) and self._better(s_now, run.target)):
             return True
         if s_now != run.target:
-            return False
+            return run.la_count < 0 and self._passing(run, x)
         run.la_count += 1  # ticks spent inside the target: 0 at the first
         cap = cfg.target_lookahead_ticks
         if cfg.target_stop == "deepest":  # cap 0: no cap
             return bool(cap and run.la_count >= cap) or not self._deeper(run, x)
         return run.la_count >= cap or not self._stays(run, x)
+
+    def _passing(self, run: _Running, x: np.ndarray) -> bool:
+        """Option miss_stop: is a planned behaviour that has not reached its target passing
+        it by? True at the tick after which the next one (extrapolated) lies farther from
+        the target's centre (Mahalanobis, its own shape), once an earlier tick had come
+        nearer: a behaviour that starts off away from the target is left to run as before.
+        "margin": only behaviours started in the margin; "all": any."""
+        cfg = self.config
+        if cfg.miss_stop == "off" or (cfg.miss_stop == "margin" and run.s0 != 0):
+            return False
+        sit = self.learner.by_id.get(run.target)
+        if sit is None:
+            return False
+        d2 = sit.mahalanobis2(np.stack([x, self._next_tick(run, x)]))
+        if d2[1] < d2[0]:
+            run.approached = True
+            return False
+        return run.approached and bool(d2[1] > d2[0])
 
     def _better(self, sid: int, target: int) -> bool:
         """Option plan_stop="higher_utility": is situation ``sid`` of higher utility (as of

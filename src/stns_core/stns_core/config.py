@@ -30,6 +30,7 @@ MARGIN_PLANS = ("margin", "nearest_r", "nearest_r_bitten")
 R_BREAK_FORGETS = ("positives", "history")
 USELESS = ("negative", "no_positive_plan")
 MARGIN_STNS = ("all", "no_positives")
+MISS_STOPS = ("off", "margin", "all")
 
 _PRESETS: dict[str, dict[str, Any]] = {
     # Paper section 7.1 (Exp. 1 and, from a saved learner, Exp. 2).
@@ -78,6 +79,7 @@ class StnsConfig:
     r_break_fraction: float = 0.5
     nn_window: int = 0
     margin_stn: str = "all"
+    miss_stop: str = "off"
     useless: str = "negative"
     relabel: str = "after_modification"
     iprl_memo: bool = True
@@ -162,7 +164,7 @@ class StnsConfig:
             "exploration": EXPLORATIONS, "shape_scope": SHAPE_SCOPES,
             "target_stop": TARGET_STOPS, "plan_stop": PLAN_STOPS, "t_result": T_RESULTS,
             "margin_plan": MARGIN_PLANS, "useless": USELESS, "r_break_forget": R_BREAK_FORGETS,
-            "margin_stn": MARGIN_STNS,
+            "margin_stn": MARGIN_STNS, "miss_stop": MISS_STOPS,
         }
         for name, allowed in choices.items():
             value = getattr(self, name)

@@ -178,6 +178,50 @@ def test_plan_stop_reading(plan_stop, stops):
         assert recs == [] and agent._run.target == tid
 
 
+PASS_BY_R = [np.array([x, 5.0]) for x in (5.0, 4.0, 3.0, 2.0, 1.0, 0.0, -1.0, -2.0, -3.0)]
+
+
+@pytest.mark.parametrize("miss_stop,started_in_r,ticks", [
+    ("off", False, None),   # faithful: runs on past R (until a reward or the target)
+    ("margin", False, 6),   # stops at (0, 5), nearest R's centre; the next tick is farther
+    ("all", False, 6),
+    ("margin", True, None),  # "margin" judges only behaviours started in the margin
+    ("all", True, 6),
+])
+def test_miss_stop_reading(miss_stop, started_in_r, ticks):
+    agent, rid = trained_agent(miss_stop=miss_stop)
+    assert all(agent.learner.classify(x) == 0 for x in PASS_BY_R)  # R is never entered
+    assert agent.step(np.array([6.0, 5.0]), 0.0, False) == 2
+    assert agent._run.planned and agent._run.target == rid
+    if started_in_r:
+        agent._run.s0 = rid  # (as if the plan had started in a situation)
+    for x in PASS_BY_R:
+        agent.step(x, 0.0, False)
+        recs = agent.pop_records()
+        if recs:
+            break
+    if ticks is None:
+        assert recs == [] and agent._run.ticks == len(PASS_BY_R)
+        return
+    rec = recs[0]
+    assert rec.ticks == ticks and rec.success is False and rec.next_situation == 0
+    h = agent.learner.hist
+    assert np.array_equal(h.x_next[(h.head - 1) % h.capacity], [0.0, 5.0])
+
+
+def test_miss_stop_leaves_a_behaviour_that_starts_off_away_from_its_target():
+    agent, rid = trained_agent(miss_stop="all")
+    agent.step(np.array([0.0, 5.0]), 0.0, False)
+    assert agent._run.target == rid
+    for y in (6.0, 7.0, 8.0, 9.0):  # never nearer R's centre: not a pass, not stopped
+        agent.step(np.array([0.0, y]), 0.0, False)
+    assert agent.pop_records() == [] and agent._run.approached is False
+    agent.step(np.array([0.0, 8.0]), 0.0, False)  # comes nearer now: remembered
+    assert agent._run.approached is True
+    saved = agent._run.to_dict()
+    assert saved["approached"] is True
+    assert type(agent._run).from_dict(saved).approached is True
+
 def test_max_behaviour_ticks():
     agent = StnsAgent(StnsConfig(max_behaviour_ticks=3, random_stop="reward"), 2, 4)
     agent.step(FAR, 0.0, False)

@@ -64,6 +64,7 @@ def test_round_trip_and_replace():
     ("r_break_forget", "all", "r_break_forget must be one of"),
     ("r_break_fraction", 1.0, "r_break_fraction must be in \\[0, 1\\), got 1.0"),
     ("margin_stn", "window", "margin_stn must be one of"),
+    ("miss_stop", "closest", "miss_stop must be one of"),
 ])
 def test_bad_values_raise_named_errors(key, value, match):
     with pytest.raises(StnsConfigError, match=match):
