@@ -222,6 +222,7 @@ def test_miss_stop_leaves_a_behaviour_that_starts_off_away_from_its_target():
     assert saved["approached"] is True
     assert type(agent._run).from_dict(saved).approached is True
 
+
 def test_max_behaviour_ticks():
     agent = StnsAgent(StnsConfig(max_behaviour_ticks=3, random_stop="reward"), 2, 4)
     agent.step(FAR, 0.0, False)
