@@ -280,7 +280,7 @@ class StnsAgent:
         nearer: a behaviour that starts off away from the target is left to run as before.
         "margin": only behaviours started in the margin; "all": any."""
         cfg = self.config
-        if cfg.miss_stop == "off" or (cfg.miss_stop == "margin" and run.s0 != 0):
+        if cfg.miss_stop == "never" or (cfg.miss_stop == "margin" and run.s0 != 0):
             return False
         sit = self.learner.by_id.get(run.target)
         if sit is None:

@@ -30,7 +30,7 @@ MARGIN_PLANS = ("margin", "nearest_r", "nearest_r_bitten")
 R_BREAK_FORGETS = ("positives", "history")
 USELESS = ("negative", "no_positive_plan")
 MARGIN_STNS = ("all", "no_positives")
-MISS_STOPS = ("off", "margin", "all")
+MISS_STOPS = ("never", "margin", "all")
 
 _PRESETS: dict[str, dict[str, Any]] = {
     # Paper section 7.1 (Exp. 1 and, from a saved learner, Exp. 2).
@@ -79,7 +79,7 @@ class StnsConfig:
     r_break_fraction: float = 0.5
     nn_window: int = 0
     margin_stn: str = "all"
-    miss_stop: str = "off"
+    miss_stop: str = "never"
     useless: str = "negative"
     relabel: str = "after_modification"
     iprl_memo: bool = True
@@ -168,6 +168,10 @@ class StnsConfig:
         }
         for name, allowed in choices.items():
             value = getattr(self, name)
+            if isinstance(value, bool | np.bool_):  # YAML 1.1 reads on/off/yes/no as booleans
+                raise StnsConfigError(
+                    f"{name} must be one of {allowed}, got the boolean {value!r} (in YAML, quote "
+                    f"words such as on, off, yes, no)")
             if value not in allowed:
                 raise StnsConfigError(f"{name} must be one of {allowed}, got {value!r}")
 

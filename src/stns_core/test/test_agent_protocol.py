@@ -182,7 +182,7 @@ PASS_BY_R = [np.array([x, 5.0]) for x in (5.0, 4.0, 3.0, 2.0, 1.0, 0.0, -1.0, -2
 
 
 @pytest.mark.parametrize("miss_stop,started_in_r,ticks", [
-    ("off", False, None),   # faithful: runs on past R (until a reward or the target)
+    ("never", False, None),  # faithful: runs on past R (until a reward or the target)
     ("margin", False, 6),   # stops at (0, 5), nearest R's centre; the next tick is farther
     ("all", False, 6),
     ("margin", True, None),  # "margin" judges only behaviours started in the margin

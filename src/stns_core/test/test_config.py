@@ -65,6 +65,7 @@ def test_round_trip_and_replace():
     ("r_break_fraction", 1.0, "r_break_fraction must be in \\[0, 1\\), got 1.0"),
     ("margin_stn", "window", "margin_stn must be one of"),
     ("miss_stop", "closest", "miss_stop must be one of"),
+    ("miss_stop", False, "got the boolean False \\(in YAML, quote"),  # YAML's `off`
 ])
 def test_bad_values_raise_named_errors(key, value, match):
     with pytest.raises(StnsConfigError, match=match):
