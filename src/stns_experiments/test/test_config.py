@@ -80,6 +80,7 @@ def test_missing_file_and_overrides(tmp_path):
     assert p["steps"] == 50 and p["agent"] == {"preset": "exp1", "overrides": {"gamma": 0.5}}
     assert p["final_window"] == 50  # clipped to the run length
     assert parse_set("agent.overrides.p_min=0.2") == (["agent", "overrides", "p_min"], 0.2)
+    assert parse_set("agent.overrides.miss_stop=never")[1] == "never"
     with pytest.raises(ExperimentError, match=r"--set expects KEY=VALUE, got 'oops'"):
         parse_set("oops")
 
@@ -94,6 +95,7 @@ def test_missing_file_and_overrides(tmp_path):
     (["exp1", "--set", "steps=0"], "steps must be in|steps must be >= 1, got 0"),
     (["exp1", "--set", "agent.overrides.gamma=7"], "agent: "),
     (["exp1", "--set", "world.overrides.room_size=-1"], "world: "),
+    (["exp1", "--set", "agent.overrides.miss_stop=off"], "got the boolean False .in YAML, quote"),
     (["exp2-sensor", "--from", "/nonexistent"], "--from: no such directory '/nonexistent'"),
 ])
 def test_cli_bad_arguments_exit_2_with_message(argv, match, capsys):
