@@ -130,7 +130,14 @@ def _comparable(run: dict) -> dict[str, Any]:
     p = {k: v for k, v in run["params"].items() if k not in FREE_PARAMS}
     recorded = run["config"].get("agent_config") or {}
     agent = {k: v for k, v in {**_agent_defaults(), **recorded}.items() if k != "seed"}
-    world = {k: v for k, v in (run["config"].get("world_config") or {}).items() if k != "seed"}
+    world_rec = run["config"].get("world_config") or {}
+    world = {k: v for k, v in world_rec.items() if k != "seed"}
+    # Where the resolved configuration is recorded it decides, not how it was given: an
+    # option set to its default with --set is the same learner as one left out.
+    if recorded:
+        p.pop("agent", None)
+    if world_rec:
+        p.pop("world", None)
     return {"params": p, "agent_config": agent, "world_config": world}
 
 

@@ -110,6 +110,19 @@ def test_refuses_runs_with_other_settings_naming_the_setting(tmp_path, same_code
         P.pool([a, c])
 
 
+def test_an_option_given_at_its_default_is_the_same_learner(tmp_path, same_code):
+    """The recorded, resolved learner and world decide, not the --set lines that gave them."""
+    a = _write_run(tmp_path / "a", 0, [_set("set00", [4] * 4, [2] * 4)])
+    given = dict(PARAMS, agent={"preset": "exp1", "overrides": {"p_min": 0.1}},
+                 world={"preset": "exp1", "overrides": {"tick_s": 0.1}})
+    b = _write_run(tmp_path / "b", 1, [_set("set00", [4] * 4, [2] * 4)], params=given)
+    assert P.pool([a, b])["trial_sets"] == 2
+    c = _write_run(tmp_path / "c", 2, [_set("set00", [4] * 4, [2] * 4)], params=given,
+                   agent_config={"seed": 0, "p_min": 0.2})
+    with pytest.raises(ExperimentError, match=r"agent_config\.p_min is 0\.1 .* 0\.2"):
+        P.pool([a, c])
+
+
 def test_an_option_missing_from_an_older_run_counts_as_its_default(tmp_path, same_code):
     pytest.importorskip("stns_core")
     old = _write_run(tmp_path / "old", 0, [_set("set00", [4] * 4, [2] * 4)])
