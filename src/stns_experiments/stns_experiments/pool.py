@@ -8,7 +8,8 @@ command takes every trial set of every run once, computes the figures of the run
 the union with the same functions (one definition, metrics.py), and prints them as the
 report does, with the per-set mean and standard error of the final level and, for long runs,
 the level over longer final windows. It refuses runs whose settings differ (other than the
-seed, the number of trial sets, the levels and the output options), a trial set held by two
+seed, the number of trial sets, the levels and the output options; the recorded, resolved
+learner and world configurations are what is compared), a trial set held by two
 runs, and runs whose library code differs between their git commits (``--any-code`` to pool
 them anyway, named in the output).
 """
