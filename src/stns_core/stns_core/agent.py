@@ -282,10 +282,9 @@ class StnsAgent:
         cfg = self.config
         if cfg.miss_stop == "never" or (cfg.miss_stop == "margin" and run.s0 != 0):
             return False
-        sit = self.learner.by_id.get(run.target)
-        if sit is None:
+        d2 = self._target_d2(run, x, self._next_tick(run, x))
+        if d2 is None:
             return False
-        d2 = sit.mahalanobis2(np.stack([x, self._next_tick(run, x)]))
         if d2[1] < d2[0]:
             run.approached = True
             return False
@@ -301,14 +300,19 @@ class StnsAgent:
     def _deeper(self, run: _Running, x: np.ndarray) -> bool:
         """Option target_stop="deepest": would the next tick (extrapolated one tick on) still
         be classified into the target and lie nearer its centre (Mahalanobis) than ``x``?"""
-        sit = self.learner.by_id.get(run.target)
-        if sit is None:  # the margin (situation 0) has no centre
+        if run.target not in self.learner.by_id:  # the margin (situation 0) has no centre
             return False
         nxt = self._next_tick(run, x)
         if self.learner.classify(nxt) != run.target:
             return False
-        d2 = sit.mahalanobis2(np.stack([x, nxt]))
+        d2 = self._target_d2(run, x, nxt)
         return bool(d2[1] < d2[0])
+
+    def _target_d2(self, run: _Running, x: np.ndarray, nxt: np.ndarray) -> np.ndarray | None:
+        """Squared Mahalanobis distances of ``x`` and ``nxt`` from the target's centre, in the
+        target's own shape; None for a target without a centre (the margin)."""
+        sit = self.learner.by_id.get(run.target)
+        return None if sit is None else sit.mahalanobis2(np.stack([x, nxt]))
 
     def _kind(self, sid: int) -> str:
         sit = self.learner.by_id.get(sid)
