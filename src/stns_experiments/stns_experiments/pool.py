@@ -49,7 +49,8 @@ REPORT_ONLY = ("stns_experiments/pool.py", "stns_experiments/report.py",
 POOLABLE = ("exp1", "exp3", "exp2-sensor", "exp2-actuator")
 
 
-def _read_json(path: Path, what: str) -> Any:
+def read_json(path: Path, what: str) -> Any:
+    """The JSON content of a file; a missing or unreadable file is named (with ``what``)."""
     try:
         return json.loads(path.read_text())
     except FileNotFoundError:
@@ -70,7 +71,7 @@ def _is_count(v: Any) -> bool:
 
 
 def _read_set(path: Path, what: str, exp2: bool = False) -> dict:
-    r = _read_json(path, what)
+    r = read_json(path, what)
     need = SET_KEYS + (("mode", "level") if exp2 else ())
     missing = [k for k in need if not isinstance(r, dict) or k not in r]
     if missing:
@@ -91,8 +92,8 @@ def _read_set(path: Path, what: str, exp2: bool = False) -> dict:
 def load_run(folder: Path) -> dict[str, Any]:
     """A run folder's config, summary and per-set results (and Exp. 2 pre-training sets)."""
     folder = Path(folder)
-    cfg = _read_json(folder / "config.json", "run config")
-    summ = _read_json(folder / "summary.json", "run summary")
+    cfg = read_json(folder / "config.json", "run config")
+    summ = read_json(folder / "summary.json", "run summary")
     p = cfg.get("params") or {}
     exp = p.get("experiment")
     if exp not in POOLABLE:
@@ -106,7 +107,7 @@ def load_run(folder: Path) -> dict[str, Any]:
            "random": None, "base_dir": None, "base_sets": []}
     rnd = folder / "sets" / "random.json"
     if rnd.exists():
-        run["random"] = _read_json(rnd, "random-policy result")
+        run["random"] = read_json(rnd, "random-policy result")
     if exp.startswith("exp2"):
         base = Path(p["from"]) if p.get("from") else folder / "base"
         if not base.is_absolute() and not base.exists():

@@ -21,7 +21,6 @@ from __future__ import annotations
 
 import argparse
 import csv
-import json
 import sys
 from collections import Counter, deque
 from pathlib import Path
@@ -31,6 +30,7 @@ import numpy as np
 from stns_experiments import metrics as M
 from stns_experiments import records as R
 from stns_experiments.config import ExperimentError
+from stns_experiments.pool import read_json
 
 GOAL_TARGET = -1  # records.to_table writes a goal target (None) as -1
 ANALYSABLE = ("exp1", "exp3")
@@ -130,10 +130,10 @@ def split_levels(tables: list[dict[str, np.ndarray]], steps: list[int | None], b
     out = {}
     for name, keep in (("complete", lambda s: s is not None and s <= by),
                        ("incomplete", lambda s: s is None or s > by)):
-        group = [t for t, s in zip(tables, steps, strict=True) if keep(s)]
-        b = sum(M.span_counts(t, by, by + span)[0] for t in group)
-        a = sum(M.span_counts(t, by, by + span)[1] for t in group)
-        out[name] = {"sets": len(group), "behaviours_to_goal": M.finite_or_none(
+        counts = [M.span_counts(t, by, by + span)
+                  for t, s in zip(tables, steps, strict=True) if keep(s)]
+        b, a = sum(c[0] for c in counts), sum(c[1] for c in counts)
+        out[name] = {"sets": len(counts), "behaviours_to_goal": M.finite_or_none(
             M.ratio(b, a).item())}
     return out
 
@@ -141,13 +141,10 @@ def split_levels(tables: list[dict[str, np.ndarray]], steps: list[int | None], b
 def load_tables(folder: Path) -> tuple[list[dict[str, np.ndarray]], int]:
     """The record tables of an Exp. 1 or Exp. 3 run folder and its final window."""
     folder = Path(folder)
-    try:
-        params = json.loads((folder / "config.json").read_text()).get("params") or {}
-    except FileNotFoundError:
-        raise ExperimentError(f"{str(folder)!r}: no config.json (not a run folder)") from None
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError, AttributeError) as e:
-        raise ExperimentError(f"{str(folder / 'config.json')!r} is not readable JSON: {e}"
-                              ) from None
+    if not (folder / "config.json").is_file():
+        raise ExperimentError(f"{str(folder)!r}: no config.json (not a run folder)")
+    cfg = read_json(folder / "config.json", "run config")
+    params = (cfg.get("params") if isinstance(cfg, dict) else None) or {}
     if params.get("experiment") not in ANALYSABLE:
         raise ExperimentError(f"{str(folder)!r}: experiment {params.get('experiment')!r} has "
                               f"no structure analysis (only {', '.join(ANALYSABLE)})")
