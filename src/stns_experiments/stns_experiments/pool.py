@@ -45,7 +45,8 @@ LIBRARY_DIRS = ("src/stns_core/stns_core", "src/rover_sim/rover_sim",
                 "src/stns_experiments/stns_experiments")
 # modules that only summarise, print or draw finished runs: no trial set runs through them
 REPORT_ONLY = ("stns_experiments/pool.py", "stns_experiments/report.py",
-               "stns_experiments/plots.py", "stns_experiments/structure.py")
+               "stns_experiments/plots.py", "stns_experiments/structure.py",
+               "stns_experiments/bootstrap.py")
 POOLABLE = ("exp1", "exp3", "exp2-sensor", "exp2-actuator")
 
 
@@ -252,50 +253,63 @@ def per_set_spread(per_set_final: list[float]) -> dict[str, float | None]:
     return {"mean": float(vals.mean()), "standard_error": se}
 
 
-def pool(folders: list[Path], any_code: bool = False) -> dict[str, Any]:
-    """The pooled summary of the runs in ``folders`` (same keys as a run's summary.json for
-    the figures it holds, plus ``pooled_from``)."""
+def collect(folders: list[Path], any_code: bool = False) -> dict[str, Any]:
+    """The trial sets of the runs in ``folders``, each once, after every check of ``pool``:
+    ``params`` (the first run's), ``sets``, ``base_sets`` (Exp. 2 pre-training, each once:
+    runs of one seed share them), ``levels`` (Exp. 2: level -> (key prefix, relearning sets,
+    from-scratch sets)) and ``pooled_from``."""
     if not folders:
         raise ExperimentError("pool: name at least one run folder")
     runs = [load_run(Path(f)) for f in folders]
     if len({str(r["folder"].resolve()) for r in runs}) < len(runs):
         raise ExperimentError("pool: a run folder is named twice")
     check_same_settings(runs)
-    p = dict(runs[0]["params"])
+    bases: dict[tuple, dict] = {}
+    for r in runs:
+        for b in r["base_sets"]:
+            bases.setdefault((r["params"]["seed"], b["key"]), b)
+    sets = _unique(runs, "sets", "trial set")
+    levels: dict[float, tuple[str, list[dict], list[dict]]] = {}
+    if str(runs[0]["params"]["experiment"]).startswith("exp2"):
+        for level in sorted({float(s["level"]) for s in sets}):
+            rl = [s for s in sets if float(s["level"]) == level and s.get("mode") == "relearn"]
+            sc = [s for s in sets if float(s["level"]) == level and s.get("mode") == "scratch"]
+            levels[level] = ((rl or sc)[0]["key"].split("-")[0], rl, sc)
+    return {
+        "runs": runs, "params": dict(runs[0]["params"]), "sets": sets,
+        "base_sets": list(bases.values()), "levels": levels,
+        "randoms": {r["params"]["seed"]: r["random"] for r in runs if r["random"]},
+        "pooled_from": {"runs": [str(r["folder"]) for r in runs],
+                        "root_seeds": sorted({r["params"]["seed"] for r in runs}),
+                        "code": code_note(runs, any_code), "any_code": any_code},
+    }
+
+
+def pool(folders: list[Path], any_code: bool = False) -> dict[str, Any]:
+    """The pooled summary of the runs in ``folders`` (same keys as a run's summary.json for
+    the figures it holds, plus ``pooled_from``)."""
+    c = collect(folders, any_code)
+    p = c["params"]
     exp, steps = p["experiment"], p["steps"]
-    seeds = sorted({r["params"]["seed"] for r in runs})
-    randoms = {r["params"]["seed"]: r["random"] for r in runs if r["random"]}
     out: dict[str, Any] = {
         "experiment": exp, "steps": steps, "block_size": p["block_size"],
-        "final_window": p["final_window"],
-        "pooled_from": {"runs": [str(r["folder"]) for r in runs], "root_seeds": seeds,
-                        "code": code_note(runs, any_code), "any_code": any_code},
-        "paper": runs[0]["summary"].get("paper", {}),
+        "final_window": p["final_window"], "pooled_from": c["pooled_from"],
+        "paper": c["runs"][0]["summary"].get("paper", {}),
     }
-    out.update(random_summary(list(randoms.values())))
+    out.update(random_summary(list(c["randoms"].values())))
+    sets = c["sets"]
     if exp in ("exp1", "exp3"):
-        sets = _unique(runs, "sets", "trial set")
         out.update(summarise_sets(sets, p, steps))
         out["behaviours_to_goal_last"] = window_levels(sets, p, steps)
         out["final_behaviours_to_goal_per_set_spread"] = per_set_spread(
             out["final_behaviours_to_goal_per_set"])
         return out
-    # Exp. 2: each pre-training set once (runs of one seed share them: --from, or the same
-    # seeds); relearn / scratch sets per level
-    bases: dict[tuple, dict] = {}
-    for r in runs:
-        for b in r["base_sets"]:
-            bases.setdefault((r["params"]["seed"], b["key"]), b)
-    base_sets = list(bases.values())
+    base_sets = c["base_sets"]
     base_final = final_level(base_sets)
-    sets = _unique(runs, "sets", "trial set")
     levels: dict[str, Any] = {}
-    for level in sorted({float(s["level"]) for s in sets}):
-        rl = [s for s in sets if float(s["level"]) == level and s.get("mode") == "relearn"]
-        sc = [s for s in sets if float(s["level"]) == level and s.get("mode") == "scratch"]
-        first = (rl or sc)[0]
-        levels[first["key"].split("-")[0]] = exp2_level_entry(
-            level, first.get("fault", {}), rl, sc, p, base_final)
+    for level, (name, rl, sc) in c["levels"].items():
+        levels[name] = exp2_level_entry(level, (rl or sc)[0].get("fault", {}), rl, sc, p,
+                                        base_final)
     out.update({"trial_sets": len(base_sets), "prefault_final_behaviours_to_goal": base_final,
                 "levels": levels})
     return out

@@ -10,45 +10,12 @@ import subprocess
 
 import numpy as np
 import pytest
+from conftest import PARAMS
+from conftest import synthetic_run as _write_run
+from conftest import synthetic_set as _set
 from stns_experiments.config import ExperimentError
 
 from stns_experiments import pool as P
-
-PARAMS = {"experiment": "exp1", "steps": 400, "block_size": 100, "final_window": 200,
-          "convergence_tol": 0.1, "trailing_window": 200, "random_steps": 60,
-          "max_ticks_per_step": 2000, "world": {"preset": "exp1", "overrides": {}},
-          "agent": {"preset": "exp1", "overrides": {}}, "save_states": True,
-          "figures": False, "config_source": None}
-
-
-def _set(key, behaviours, arrivals, final_window_blocks=2, **extra):
-    fb, fa = sum(behaviours[-final_window_blocks:]), sum(arrivals[-final_window_blocks:])
-    return {"key": key, "block_behaviours": behaviours, "block_arrivals": arrivals,
-            "final_behaviours": fb, "final_arrivals": fa, "success_r": [9, 10],
-            "success_t": [1, 2], "within_two": [3, 4], "situations_final": 6,
-            "wall_seconds": 1.0, "steps_per_second": 400.0, "cpu_seconds": 1.0, **extra}
-
-
-def _write_run(folder, seed, sets, params=None, commit="abc1234", agent_config=None,
-               random=None, base_sets=None):
-    p = dict(PARAMS if params is None else params, seed=seed, trial_sets=len(sets))
-    (folder / "sets").mkdir(parents=True)
-    cfg = {"params": p, "seeds": {}, "command": "stns-experiment ...",
-           "world_config": {"seed": seed, "tick_s": 0.1},
-           "agent_config": agent_config or {"seed": 0, "p_min": 0.1}}
-    (folder / "config.json").write_text(json.dumps(cfg))
-    summ = {"experiment": p["experiment"], "seed": seed, "paper": {},
-            "code_version": {"commit": commit, "uncommitted": []}}
-    (folder / "summary.json").write_text(json.dumps(summ))
-    for s in sets:
-        (folder / "sets" / f"{s['key']}.json").write_text(json.dumps(s))
-    if random is not None:
-        (folder / "sets" / "random.json").write_text(json.dumps(random))
-    if base_sets is not None:
-        (folder / "base" / "sets").mkdir(parents=True)
-        for s in base_sets:
-            (folder / "base" / "sets" / f"{s['key']}.json").write_text(json.dumps(s))
-    return folder
 
 
 @pytest.fixture
