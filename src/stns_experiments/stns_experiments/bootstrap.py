@@ -1,0 +1,213 @@
+"""How much a run's step figures move with its sample of trial sets: a bootstrap over sets.
+
+    python -m stns_experiments.bootstrap RUN ... [--resamples 2000] [--seed 0] [--any-code]
+                                         [--at STEP ...] [--json FILE]
+
+The convergence step (Exp. 1, 3) and the Exp. 2 delay and blocks above the pre-fault band are
+read off a pooled curve, each as the last block outside a 10 % band, so a run of 10 or 20
+trial sets gives one draw of a noisy figure. This command resamples the trial sets of the
+runs (taken as ``pool`` takes them: each once, the same checks) with replacement, recomputes
+the figure on each resample with the definitions of metrics.py, and prints its quantiles
+(2.5, 25, 50, 75, 97.5 %; each a resampled value) beside the figure of the sample itself.
+Exp. 2 resamples the relearning, the from-scratch and the pre-training sets of each level
+independently (they are independent samples). ``--at`` adds the share of resamples whose
+convergence step is at or below each given step. Resamples whose figure is undefined (the
+curve never stays in the band) count as above every step and are reported as such.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from stns_experiments import metrics as M
+from stns_experiments.config import ExperimentError
+from stns_experiments.pool import collect
+from stns_experiments.runner import write_json
+
+QUANTILES = (2.5, 25.0, 50.0, 75.0, 97.5)
+
+
+def _counts(sets: list[dict]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Per set: block behaviours, block arrivals (sets x blocks) and final (behaviours,
+    arrivals) (sets x 2)."""
+    bs = np.array([s["block_behaviours"] for s in sets], dtype=np.int64)
+    ar = np.array([s["block_arrivals"] for s in sets], dtype=np.int64)
+    fin = np.array([[s["final_behaviours"], s["final_arrivals"]] for s in sets], dtype=np.int64)
+    return bs, ar, fin
+
+
+def learning_figures(bs: np.ndarray, ar: np.ndarray, fin: np.ndarray, params: dict
+                     ) -> dict[str, float | None]:
+    """Final level and the two convergence steps of a group of sets (rows of the counts),
+    as ``summarise_sets`` computes them."""
+    B, tol = params["block_size"], params["convergence_tol"]
+    b, a = bs.sum(0), ar.sum(0)
+    final = float(M.ratio(*fin.sum(0)))
+    return {"final": final,
+            "convergence_step": M.convergence_block(M.ratio(b, a), final, B, tol),
+            "convergence_step_trailing": M.convergence_trailing(
+                b, a, final, B, params["trailing_window"], tol)}
+
+
+def fault_figures(relearn: tuple, scratch: tuple, base_fin: np.ndarray, params: dict
+                  ) -> dict[str, float | None]:
+    """Exp. 2 delay and blocks above the pre-fault band of one level, as
+    ``exp2_level_entry`` computes them, from (block behaviours, block arrivals, final)."""
+    B, tol = params["block_size"], params["convergence_tol"]
+    rc = M.ratio(relearn[0].sum(0), relearn[1].sum(0))
+    sc = M.ratio(scratch[0].sum(0), scratch[1].sum(0))
+    out: dict[str, float | None] = {"delay_steps": None, "blocks_worse_than_prefault": None}
+    level = float(M.ratio(*scratch[2].sum(0)))
+    if np.isfinite(level):
+        tr = M.first_block_at_or_below(rc, level, B, tol)
+        ts = M.first_block_at_or_below(sc, level, B, tol)
+        out["delay_steps"] = None if tr is None or ts is None else tr - ts
+    pre = float(M.ratio(*base_fin.sum(0))) if len(base_fin) else float("nan")
+    if np.isfinite(pre):
+        rc = np.asarray(rc, dtype=float)
+        out["blocks_worse_than_prefault"] = int(
+            (~(np.isfinite(rc) & (rc <= (1 + tol) * pre))).sum())
+    return out
+
+
+def spread(sample: float | None, draws: list[float | None], at: list[int]) -> dict[str, Any]:
+    """The figure of the sample, quantiles of the resampled figures (undefined ones as
+    +inf), their share undefined, and the share at or below each step of ``at``."""
+    vals = np.array([np.inf if v is None else float(v) for v in draws])
+    # inverted_cdf: each quantile is a resampled value (a step on the block grid), and an
+    # undefined one (+inf) is never interpolated with a finite one
+    q = (np.percentile(vals, QUANTILES, method="inverted_cdf") if len(vals)
+         else np.full(len(QUANTILES), np.nan))
+    return {"sample": sample,
+            "quantiles": {f"{k:g}": (None if not np.isfinite(v) else float(v))
+                          for k, v in zip(QUANTILES, q, strict=True)},
+            "undefined": float(np.mean(~np.isfinite(vals))) if len(vals) else None,
+            "at_or_below": {str(s): float(np.mean(vals <= s)) for s in at}}
+
+
+def bootstrap(folders: list[Path], resamples: int = 2000, seed: int = 0,
+              any_code: bool = False, at: list[int] | None = None) -> dict[str, Any]:
+    """Bootstrap figures of the runs in ``folders`` (see the module docstring)."""
+    if isinstance(resamples, bool) or not isinstance(resamples, int) or resamples < 1:
+        raise ExperimentError(f"--resamples must be a whole number >= 1, got {resamples!r}")
+    at = [] if at is None else list(at)
+    bad = [s for s in at if isinstance(s, bool) or not isinstance(s, int) or s < 0]
+    if bad:
+        raise ExperimentError(f"--at takes steps >= 0, got {bad[0]!r}")
+    c = collect(folders, any_code)
+    p = c["params"]
+    rng = np.random.default_rng(seed)
+    out: dict[str, Any] = {"experiment": p["experiment"], "resamples": resamples,
+                           "seed": seed, "pooled_from": c["pooled_from"]}
+    if p["experiment"] in ("exp1", "exp3"):
+        bs, ar, fin = _counts(c["sets"])
+        n = len(bs)
+        draws = []
+        for _ in range(resamples):
+            i = rng.integers(n, size=n)
+            draws.append(learning_figures(bs[i], ar[i], fin[i], p))
+        own = learning_figures(bs, ar, fin, p)
+        out["trial_sets"] = n
+        out["figures"] = {k: spread(own[k], [d[k] for d in draws], at if "step" in k else [])
+                          for k in own}
+        return out
+    base_fin = _counts(c["base_sets"])[2] if c["base_sets"] else np.zeros((0, 2), np.int64)
+    out["trial_sets"] = len(c["base_sets"])
+    out["levels"] = {}
+    for name, rl, sc in c["levels"].values():
+        if not rl or not sc:
+            continue  # a delay needs both curves
+        r, s = _counts(rl), _counts(sc)
+        draws = []
+        for _ in range(resamples):
+            ir = rng.integers(len(rl), size=len(rl))
+            i_s = rng.integers(len(sc), size=len(sc))
+            ib = rng.integers(max(len(base_fin), 1), size=len(base_fin))
+            draws.append(fault_figures(tuple(x[ir] for x in r), tuple(x[i_s] for x in s),
+                                       base_fin[ib], p))
+        own = fault_figures(r, s, base_fin, p)
+        out["levels"][name] = {"relearn_sets": len(rl), "scratch_sets": len(sc),
+                               **{k: spread(own[k], [d[k] for d in draws], [])
+                                  for k in own}}
+    return out
+
+
+def _fmt(v: float | None) -> str:
+    return "never" if v is None else f"{v:g}"
+
+
+def _row(label: str, f: dict) -> str:
+    q = " / ".join(_fmt(v) for v in f["quantiles"].values())
+    cells = [label, _fmt(f["sample"]), q, f"{100 * (f['undefined'] or 0.0):.1f} %"]
+    cells += [f"{100 * v:.1f} %" for v in f["at_or_below"].values()]
+    return "| " + " | ".join(cells) + " |"
+
+
+def describe(s: dict) -> str:
+    src = s["pooled_from"]
+    lines = [f"### {s['experiment']}: bootstrap over trial sets, {s['resamples']} resamples "
+             f"(seed {s['seed']})", "",
+             f"Runs: {', '.join('`' + r + '`' for r in src['runs'])}; {src['code']}.", "",
+             "Quantiles 2.5 / 25 / 50 / 75 / 97.5 %; 'never': the curve does not stay in the "
+             "band (counted as above every step).", ""]
+    if "figures" in s:
+        at = list(s["figures"]["convergence_step"]["at_or_below"])
+        lines.append(f"{s['trial_sets']} trial sets.")
+        lines.append("")
+        lines.append("| figure | sample | resampled quantiles | undefined |"
+                     + "".join(f" at or below {a} |" for a in at))
+        lines.append("|---|---|---|---|" + "---|" * len(at))
+        for key, label in (("convergence_step", "convergence (block rule), steps"),
+                           ("convergence_step_trailing", "convergence (trailing rule), steps")):
+            lines.append(_row(label, s["figures"][key]))
+        f = s["figures"]["final"]
+        q = " / ".join("-" if v is None else f"{v:.2f}" for v in f["quantiles"].values())
+        lines.append(f"| behaviours to goal, final window | {f['sample']:.2f} | {q} | "
+                     f"{100 * (f['undefined'] or 0.0):.1f} % |" + " |" * len(at))
+    else:
+        lines.append(f"{s['trial_sets']} pre-training sets; per level the relearning and "
+                     f"from-scratch sets resampled independently.")
+        lines.append("")
+        lines.append("| level | figure | sample | resampled quantiles | undefined |")
+        lines.append("|---|---|---|---|---|")
+        for name, e in s["levels"].items():
+            lines.append(_row(f"{name} | delay against scratch, steps", e["delay_steps"]))
+            lines.append(_row(f"{name} | blocks above the pre-fault band",
+                              e["blocks_worse_than_prefault"]))
+    return "\n".join(lines) + "\n"
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(prog="python -m stns_experiments.bootstrap",
+                                 description=__doc__.split("\n\n")[0])
+    ap.add_argument("runs", nargs="+", type=Path, help="run folders of one experiment")
+    ap.add_argument("--resamples", type=int, default=2000, help="bootstrap resamples (2000)")
+    ap.add_argument("--seed", type=int, default=0, help="seed of the resampling (0)")
+    ap.add_argument("--at", type=int, nargs="*", default=[],
+                    help="also the share of resamples converged at or before these steps")
+    ap.add_argument("--any-code", action="store_true",
+                    help="pool runs made on different library code (named in the output)")
+    ap.add_argument("--json", type=Path, help="also write the figures to this file")
+    args = ap.parse_args(argv)
+    try:
+        s = bootstrap(args.runs, args.resamples, args.seed, args.any_code, args.at)
+    except ExperimentError as e:
+        sys.stderr.write(f"error: {e}\n")
+        return 2
+    sys.stdout.write(describe(s))
+    if args.json:
+        try:
+            write_json(args.json, s)
+        except OSError as e:
+            sys.stderr.write(f"error: --json {str(args.json)!r}: {e}\n")
+            return 2
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

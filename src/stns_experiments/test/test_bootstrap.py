@@ -1,0 +1,137 @@
+"""The bootstrap over trial sets (stns_experiments.bootstrap) on small synthetic run folders
+with known answers."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+from conftest import PARAMS, synthetic_run, synthetic_set
+from stns_experiments.config import ExperimentError
+
+from stns_experiments import bootstrap as BS
+from stns_experiments import pool as P
+
+LONG = dict(PARAMS, steps=600)  # 6 blocks of 100, final window the last 2
+FAST = ([40, 20, 20, 20, 20, 20], [10] * 6)  # 4, then 2 per arrival: converged from 100
+SLOW = ([40, 40, 40, 40, 20, 20], [10] * 6)  # 4 until block 3: converged from 400
+
+
+@pytest.fixture(autouse=True)
+def same_code(monkeypatch):
+    monkeypatch.setattr(P, "library_changes", lambda commits, cwd=None: [])
+
+
+def _run(tmp_path, name, seed, counts, params=LONG):
+    sets = [synthetic_set(f"set{i:02d}", list(b), list(a)) for i, (b, a) in enumerate(counts)]
+    return synthetic_run(tmp_path / name, seed, sets, params=params)
+
+
+def test_identical_sets_leave_no_spread_and_give_the_pooled_figures(tmp_path):
+    runs = [_run(tmp_path, "a", 0, [FAST] * 3), _run(tmp_path, "b", 1, [FAST] * 2)]
+    s = BS.bootstrap(runs, resamples=50, at=[0, 100])
+    pooled = P.pool(runs)
+    f = s["figures"]
+    assert s["trial_sets"] == 5
+    assert f["convergence_step"]["sample"] == pooled["convergence_step"] == 100
+    assert f["convergence_step_trailing"]["sample"] == pooled["convergence_step_trailing"]
+    assert f["final"]["sample"] == pytest.approx(pooled["final_behaviours_to_goal"])
+    assert set(f["convergence_step"]["quantiles"].values()) == {100}
+    assert f["convergence_step"]["at_or_below"] == {"0": 0.0, "100": 1.0}
+    assert f["convergence_step"]["undefined"] == 0.0
+
+
+def test_resampling_two_kinds_of_sets_spans_both_and_repeats_with_its_seed(tmp_path):
+    # one fast and one slow set: the pooled curve 4, 3, 3, 3, 2, 2 converges from 400; a
+    # resample holds the fast set twice with probability 1/4 and then converges from 100
+    run = _run(tmp_path, "a", 0, [FAST, SLOW])
+    s = BS.bootstrap([run], resamples=4000, seed=3, at=[100])
+    conv = s["figures"]["convergence_step"]
+    assert conv["sample"] == 400
+    assert conv["quantiles"]["2.5"] == 100 and conv["quantiles"]["97.5"] == 400
+    assert conv["at_or_below"]["100"] == pytest.approx(0.25, abs=0.03)
+    again = BS.bootstrap([run], resamples=4000, seed=3, at=[100])
+    assert again["figures"] == s["figures"]
+
+
+def test_a_curve_that_never_enters_the_band_is_undefined_not_a_step(tmp_path):
+    # the last block (4) is outside 10 % of the final level (3): no convergence step
+    run = _run(tmp_path, "a", 0, [([40, 40, 40, 40, 20, 40], [10] * 6)])
+    s = BS.bootstrap([run], resamples=20, at=[500])
+    conv = s["figures"]["convergence_step"]
+    assert conv["sample"] is None and conv["undefined"] == 1.0
+    assert set(conv["quantiles"].values()) == {None}
+    assert conv["at_or_below"] == {"500": 0.0}
+    assert "| convergence (block rule), steps | never | never / never" in BS.describe(s)
+
+
+def test_exp2_resamples_each_level_and_matches_the_pooled_delay(tmp_path):
+    exp2 = dict(PARAMS, experiment="exp2-sensor", block_size=250, steps=1000,
+                final_window=500, pretrain_steps=1000, fault="goal_sensor_rotation_deg",
+                scratch=True)
+    base = [synthetic_set("set00", [50, 20], [10, 10], final_window_blocks=1),
+            synthetic_set("set01", [30, 20], [10, 10], final_window_blocks=1)]
+    sets = []
+    for mode, counts in (("relearn", [60, 25, 23, 23]), ("scratch", [80, 21, 21, 21])):
+        sets += [synthetic_set(f"10deg-{mode}-{i:02d}", counts, [10] * 4, mode=mode,
+                               level=10.0) for i in range(3)]
+    run = synthetic_run(tmp_path / "a", 0, sets, params=exp2, base_sets=base)
+    s = BS.bootstrap([run], resamples=30)
+    pooled = P.pool([run])["levels"]["10deg"]
+    e = s["levels"]["10deg"]
+    assert e["relearn_sets"] == 3 and e["scratch_sets"] == 3 and s["trial_sets"] == 2
+    # relearning within 1.1 x scratch's final 2.1 from block 2, scratch from block 1: +250
+    # steps; blocks above 1.1 x the pre-fault 2.0: 6.0, 2.5, 2.3 and 2.3
+    assert e["delay_steps"]["sample"] == pooled["delay_steps"] == 250
+    assert e["blocks_worse_than_prefault"]["sample"] == pooled["blocks_worse_than_prefault"] == 4
+    assert set(e["delay_steps"]["quantiles"].values()) == {250}
+    assert "| 10deg | delay against scratch, steps | 250 | 250 / 250" in BS.describe(s)
+
+
+def test_exp2_relearning_and_scratch_sets_are_resampled_independently(tmp_path):
+    """Both curves from the same two kinds of sets: drawn with one index they would always
+    agree (delay 0); drawn independently they often do not."""
+    exp2 = dict(PARAMS, experiment="exp2-sensor", block_size=250, steps=1000,
+                final_window=500, pretrain_steps=1000, fault="goal_sensor_rotation_deg",
+                scratch=True)
+    kinds = ([60, 21, 21, 21], [90, 60, 40, 21])
+    sets = [synthetic_set(f"10deg-{mode}-{i:02d}", kinds[i], [10] * 4, mode=mode, level=10.0)
+            for mode in ("relearn", "scratch") for i in range(2)]
+    base = [synthetic_set("set00", [50, 20], [10, 10], final_window_blocks=1)]
+    run = synthetic_run(tmp_path / "a", 0, sets, params=exp2, base_sets=base)
+    e = BS.bootstrap([run], resamples=400, seed=1)["levels"]["10deg"]
+    assert e["delay_steps"]["sample"] == 0
+    q = e["delay_steps"]["quantiles"]
+    assert q["2.5"] < 0 < q["97.5"]
+
+
+@pytest.mark.parametrize("resamples", [0, -3, True, 2.5])
+def test_a_bad_resample_count_is_named(tmp_path, resamples):
+    run = _run(tmp_path, "a", 0, [FAST])
+    with pytest.raises(ExperimentError, match=f"--resamples .* got {resamples!r}"):
+        BS.bootstrap([run], resamples=resamples)
+
+
+def test_bad_arguments_and_folders_fail_with_the_value_named(tmp_path, capsys):
+    run = _run(tmp_path, "a", 0, [FAST])
+    with pytest.raises(ExperimentError, match="--at takes steps >= 0, got -5"):
+        BS.bootstrap([run], at=[100, -5])
+    assert BS.main([str(tmp_path / "nothing")]) == 2
+    assert "nothing" in capsys.readouterr().err
+    assert BS.main([str(run), "--resamples", "0"]) == 2
+    assert "got 0" in capsys.readouterr().err
+
+
+def test_main_prints_the_table_and_writes_strict_json(tmp_path, capsys):
+    run = _run(tmp_path, "a", 0, [FAST, SLOW])
+    out = tmp_path / "boot.json"
+    assert BS.main([str(run), "--resamples", "200", "--at", "1200", "--json", str(out)]) == 0
+    text = capsys.readouterr().out
+    assert "2 trial sets." in text and "at or below 1200 |" in text
+    assert "| convergence (block rule), steps | 400 | 100 / " in text
+
+    def refuse(name):
+        raise ValueError(f"not strict JSON: {name}")
+
+    s = json.loads(out.read_text(), parse_constant=refuse)
+    assert s["resamples"] == 200 and s["figures"]["convergence_step"]["sample"] == 400
