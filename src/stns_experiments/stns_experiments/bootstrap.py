@@ -54,16 +54,17 @@ def learning_figures(bs: np.ndarray, ar: np.ndarray, fin: np.ndarray, params: di
                 b, a, final, B, params["trailing_window"], tol)}
 
 
-def fault_figures(relearn: tuple, scratch: tuple, base_fin: np.ndarray, params: dict
+def fault_figures(relearn: tuple, scratch: tuple | None, base_fin: np.ndarray, params: dict
                   ) -> dict[str, float | None]:
     """Exp. 2 delay and blocks above the pre-fault band of one level, as
-    ``exp2_level_entry`` computes them, from (block behaviours, block arrivals, final)."""
+    ``exp2_level_entry`` computes them, from (block behaviours, block arrivals, final); no
+    delay without from-scratch sets."""
     B, tol = params["block_size"], params["convergence_tol"]
     rc = M.ratio(relearn[0].sum(0), relearn[1].sum(0))
-    sc = M.ratio(scratch[0].sum(0), scratch[1].sum(0))
     out: dict[str, float | None] = {"delay_steps": None, "blocks_worse_than_prefault": None}
-    level = float(M.ratio(*scratch[2].sum(0)))
+    level = float(M.ratio(*scratch[2].sum(0))) if scratch is not None else float("nan")
     if np.isfinite(level):
+        sc = M.ratio(scratch[0].sum(0), scratch[1].sum(0))
         tr = M.first_block_at_or_below(rc, level, B, tol)
         ts = M.first_block_at_or_below(sc, level, B, tol)
         out["delay_steps"] = None if tr is None or ts is None else tr - ts
@@ -120,16 +121,18 @@ def bootstrap(folders: list[Path], resamples: int = 2000, seed: int = 0,
     out["trial_sets"] = len(c["base_sets"])
     out["levels"] = {}
     for name, rl, sc in c["levels"].values():
-        if not rl or not sc:
-            continue  # a delay needs both curves
-        r, s = _counts(rl), _counts(sc)
+        if not rl:
+            continue  # nothing relearned at this level: no figure to resample
+        r, s = _counts(rl), (_counts(sc) if sc else None)
         draws = []
         for _ in range(resamples):
             ir = rng.integers(len(rl), size=len(rl))
-            i_s = rng.integers(len(sc), size=len(sc))
+            rs = None
+            if s is not None:
+                i_s = rng.integers(len(sc), size=len(sc))
+                rs = tuple(x[i_s] for x in s)
             ib = rng.integers(max(len(base_fin), 1), size=len(base_fin))
-            draws.append(fault_figures(tuple(x[ir] for x in r), tuple(x[i_s] for x in s),
-                                       base_fin[ib], p))
+            draws.append(fault_figures(tuple(x[ir] for x in r), rs, base_fin[ib], p))
         own = fault_figures(r, s, base_fin, p)
         out["levels"][name] = {"relearn_sets": len(rl), "scratch_sets": len(sc),
                                **{k: spread(own[k], [d[k] for d in draws], [])
@@ -189,7 +192,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--resamples", type=int, default=2000, help="bootstrap resamples (2000)")
     ap.add_argument("--seed", type=int, default=0, help="seed of the resampling (0)")
     ap.add_argument("--at", type=int, nargs="*", default=[],
-                    help="also the share of resamples converged at or before these steps")
+                    help="Exp. 1, 3: also the share of resamples converged at or before "
+                         "these steps")
     ap.add_argument("--any-code", action="store_true",
                     help="pool runs made on different library code (named in the output)")
     ap.add_argument("--json", type=Path, help="also write the figures to this file")

@@ -105,6 +105,20 @@ def test_exp2_relearning_and_scratch_sets_are_resampled_independently(tmp_path):
     assert q["2.5"] < 0 < q["97.5"]
 
 
+def test_exp2_without_scratch_sets_still_gives_the_blocks_above_the_band(tmp_path):
+    exp2 = dict(PARAMS, experiment="exp2-sensor", block_size=250, steps=1000,
+                final_window=500, pretrain_steps=1000, fault="goal_sensor_rotation_deg",
+                scratch=False)
+    base = [synthetic_set("set00", [50, 20], [10, 10], final_window_blocks=1)]
+    sets = [synthetic_set(f"10deg-relearn-{i:02d}", [60, 25, 23, 21], [10] * 4,
+                          mode="relearn", level=10.0) for i in range(2)]
+    run = synthetic_run(tmp_path / "a", 0, sets, params=exp2, base_sets=base)
+    e = BS.bootstrap([run], resamples=20)["levels"]["10deg"]
+    # above 1.1 x the pre-fault 2.0: 6.0, 2.5 and 2.3; no scratch curve, so no delay
+    assert e["scratch_sets"] == 0 and e["blocks_worse_than_prefault"]["sample"] == 3
+    assert e["delay_steps"]["sample"] is None and e["delay_steps"]["undefined"] == 1.0
+
+
 @pytest.mark.parametrize("resamples", [0, -3, True, 2.5])
 def test_a_bad_resample_count_is_named(tmp_path, resamples):
     run = _run(tmp_path, "a", 0, [FAST])
