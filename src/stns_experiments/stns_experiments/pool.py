@@ -259,10 +259,15 @@ def collect(folders: list[Path], any_code: bool = False) -> dict[str, Any]:
     runs of one seed share them), ``levels`` (Exp. 2: level -> (key prefix, relearning sets,
     from-scratch sets)) and ``pooled_from``."""
     if not folders:
-        raise ExperimentError("pool: name at least one run folder")
+        raise ExperimentError("name at least one run folder")
     runs = [load_run(Path(f)) for f in folders]
-    if len({str(r["folder"].resolve()) for r in runs}) < len(runs):
-        raise ExperimentError("pool: a run folder is named twice")
+    seen: set[str] = set()
+    for r in runs:
+        where = str(r["folder"].resolve())
+        if where in seen:
+            raise ExperimentError(f"run folder {str(r['folder'])!r} is named twice: its trial "
+                                  f"sets would count twice")
+        seen.add(where)
     check_same_settings(runs)
     bases: dict[tuple, dict] = {}
     for r in runs:
