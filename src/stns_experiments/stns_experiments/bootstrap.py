@@ -26,8 +26,7 @@ import numpy as np
 
 from stns_experiments import metrics as M
 from stns_experiments.config import ExperimentError
-from stns_experiments.pool import collect
-from stns_experiments.runner import write_json
+from stns_experiments.pool import collect, print_and_save
 
 QUANTILES = (2.5, 25.0, 50.0, 75.0, 97.5)
 
@@ -203,14 +202,7 @@ def main(argv: list[str] | None = None) -> int:
     except ExperimentError as e:
         sys.stderr.write(f"error: {e}\n")
         return 2
-    sys.stdout.write(describe(s))
-    if args.json:
-        try:
-            write_json(args.json, s)
-        except OSError as e:
-            sys.stderr.write(f"error: --json {str(args.json)!r}: {e}\n")
-            return 2
-    return 0
+    return print_and_save(describe(s), s, args.json)
 
 
 if __name__ == "__main__":

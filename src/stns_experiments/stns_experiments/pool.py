@@ -361,12 +361,18 @@ def main(argv: list[str] | None = None) -> int:
     except ExperimentError as e:
         sys.stderr.write(f"error: {e}\n")
         return 2
-    sys.stdout.write(describe(s))
-    if args.json:
+    return print_and_save(describe(s), s, args.json)
+
+
+def print_and_save(text: str, data: dict, json_path: Path | None) -> int:
+    """Print a report module's tables and, with ``--json``, write its figures as
+    summary.json is written (atomic, no bare NaN); the command's exit code."""
+    sys.stdout.write(text)
+    if json_path:
         try:
-            write_json(args.json, s)  # as summary.json: atomic, no bare NaN
+            write_json(json_path, data)
         except OSError as e:
-            sys.stderr.write(f"error: --json {str(args.json)!r}: {e}\n")
+            sys.stderr.write(f"error: --json {str(json_path)!r}: {e}\n")
             return 2
     return 0
 
