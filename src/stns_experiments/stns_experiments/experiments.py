@@ -342,10 +342,19 @@ def offline_random(world, agent, sits: list[dict], rng, max_behaviours: int, max
                    r_min: float) -> dict:
     """Random behaviours with the frozen segmentation: a behaviour stops on a reward or when
     the classified situation changes. A behaviour is a positive instance of every situation
-    whose condition behaviour it was and whose result it met (op. 1 of §5.3)."""
+    whose condition behaviour it was and whose result it met (op. 1 of §5.3). Runs until
+    every situation has its on-line count (``collected_at``); ``totals_collected_at`` is the
+    behaviour by which the R and the T positives, each summed over the situations of that
+    kind, had reached their on-line sums (None if never, within ``max_behaviours``)."""
     need = {s["id"]: s["positives"] for s in sits}
     have = dict.fromkeys(need, 0)
     done_at: dict[int, int | None] = dict.fromkeys(need, None)
+    kind = {s["id"]: s["kind"] for s in sits}
+    # §7.4's figures are totals over all R- (T-) situations (its 225.5 R positives are below
+    # its 232 arrivals in 1200 steps), so also note when the totals of each kind are reached.
+    need_total = {k: sum(v for i, v in need.items() if kind[i] == k) for k in ("R", "T")}
+    have_total = dict.fromkeys(need_total, 0)
+    totals_at: int | None = 0 if all(v <= 0 for v in need_total.values()) else None
     behaviours = arrivals = 0
     by_b: dict[int, list[dict]] = {}
     for s in sits:
@@ -374,18 +383,71 @@ def offline_random(world, agent, sits: list[dict], rng, max_behaviours: int, max
             met = (reward >= r_min) if s["kind"] == "R" else (s1 is not None and s1 == s["parent"])
             if met:
                 have[s["id"]] += 1
+                have_total[s["kind"]] += 1
                 if s["id"] in remaining and have[s["id"]] >= need[s["id"]]:
                     remaining.discard(s["id"])
                     done_at[s["id"]] = behaviours
+        if totals_at is None and all(have_total[k] >= need_total[k] for k in need_total):
+            totals_at = behaviours
         if term:
             arrivals += 1
             obs, _ = world.reset()
     return {"random_behaviours": behaviours, "random_arrivals": arrivals,
             "all_collected": not remaining, "collected": {str(k): v for k, v in have.items()},
-            "collected_at": {str(k): v for k, v in done_at.items()}}
+            "collected_at": {str(k): v for k, v in done_at.items()},
+            "totals_needed": need_total, "totals_collected_at": totals_at}
 
 
 # ------------------------------------------------------------------ summaries
+def offline_figures(sets: list[dict], behaviours_per_arrival: float | None) -> dict:
+    """§7.4's figures from ``task_offline`` results.
+
+    The paper's "average number of positive instances of all R-Situations" (225.5) is read as
+    the sum over a trial set's R-situations, averaged over sets (its 1200 steps held only
+    232 arrivals), and likewise for T. Two measured ratios: random behaviours until *every*
+    situation has its own on-line count, and until the sums of each kind are reached (the
+    paper's arithmetic, which prices one pool of R positives and one of T positives). The
+    arithmetic itself is repeated with our rates: (R sum x random behaviours per arrival +
+    T sum x 4) / on-line behaviours, per-set means as in the paper.
+    """
+    n = len(sets)
+    online = sum(r["online_behaviours"] for r in sets)
+
+    def per_kind(r: dict, kind: str) -> list[int]:
+        return [v for k, v in r["targets"].items() if r["target_kinds"][k] == kind]
+
+    pos_r = [v for r in sets for v in per_kind(r, "R")]
+    pos_t = [v for r in sets for v in per_kind(r, "T")]
+    sum_r = float(np.mean([sum(per_kind(r, "R")) for r in sets]))
+    sum_t = float(np.mean([sum(per_kind(r, "T")) for r in sets]))
+    totals_done = [r for r in sets if r.get("totals_collected_at") is not None]
+    rand_totals = sum(r["totals_collected_at"] if r.get("totals_collected_at") is not None
+                      else r["random_behaviours"] for r in sets)
+    est = None
+    if online and behaviours_per_arrival:
+        est = (sum_r * behaviours_per_arrival + sum_t * 4.0) / (online / n)
+    return {
+        "online_behaviours_mean": online / n,
+        "random_behaviours_mean": sum(r["random_behaviours"] for r in sets) / n,
+        "sets_all_collected": sum(1 for r in sets if r["all_collected"]),
+        "ratio_measured": sum(r["random_behaviours"] for r in sets) / online if online else None,
+        "ratio_measured_per_set": [r["random_behaviours"] / r["online_behaviours"]
+                                   for r in sets if r["online_behaviours"]],
+        "ratio_is_lower_bound": any(not r["all_collected"] for r in sets),
+        "positives_r_mean": float(np.mean(pos_r)) if pos_r else None,
+        "positives_t_mean": float(np.mean(pos_t)) if pos_t else None,
+        "positives_r_sum_mean": sum_r, "positives_t_sum_mean": sum_t,
+        "situations_r_mean": len(pos_r) / n, "situations_t_mean": len(pos_t) / n,
+        "random_behaviours_totals_mean": rand_totals / n,
+        "ratio_measured_totals": rand_totals / online if online else None,
+        "ratio_totals_is_lower_bound": len(totals_done) < n,
+        "ratio_paper_arithmetic": est,
+        "paper_arithmetic": "(R positives summed over the R-situations x random behaviours per "
+                            "arrival + T positives summed x 4) / on-line behaviours, per-set "
+                            "means, as in §7.4",
+    }
+
+
 def pooled(results: list[dict], key: str) -> tuple[int, int]:
     num = sum(int(r[key][0]) for r in results if r.get(key) is not None)
     den = sum(int(r[key][1]) for r in results if r.get(key) is not None)

@@ -24,6 +24,7 @@ from stns_experiments.experiments import (
     load_agent,
     make_agent_config,
     make_world,
+    offline_figures,
     random_summary,
     situations_of,
     summarise_sets,
@@ -496,32 +497,8 @@ def run_offline(run: Run) -> dict:
     rnd = random_summary(_sorted(res, "random"))
     summary.update(rnd)
     if sets:
-        online = sum(r["online_behaviours"] for r in sets)
-        done = [r for r in sets if r["all_collected"]]
-        rand = sum(r["random_behaviours"] for r in sets)
-        pos_r = [v for r in sets for k, v in r["targets"].items() if r["target_kinds"][k] == "R"]
-        pos_t = [v for r in sets for k, v in r["targets"].items() if r["target_kinds"][k] == "T"]
-        per_set = [r["random_behaviours"] / r["online_behaviours"] for r in sets
-                   if r["online_behaviours"]]
-        mean_r = float(np.mean(pos_r)) if pos_r else None
-        mean_t = float(np.mean(pos_t)) if pos_t else None
-        bpa = rnd.get("random_behaviours_per_arrival")
-        est = None
-        if mean_r is not None and bpa:
-            est = (mean_r * bpa + (mean_t or 0.0) * 4.0) / (online / len(sets))
-        summary.update({
-            "online_steps": p["steps"],
-            "online_behaviours_mean": online / len(sets),
-            "random_behaviours_mean": rand / len(sets),
-            "sets_all_collected": len(done),
-            "ratio_measured": rand / online if online else None,
-            "ratio_measured_per_set": per_set,
-            "ratio_is_lower_bound": len(done) < len(sets),
-            "positives_r_mean": mean_r, "positives_t_mean": mean_t,
-            "ratio_paper_arithmetic": est,
-            "paper_arithmetic": "(mean R positives x random behaviours per arrival + mean T "
-                                "positives x 4) / on-line behaviours, as in §7.4",
-        })
+        summary.update(offline_figures(sets, rnd.get("random_behaviours_per_arrival")))
+        summary["online_steps"] = p["steps"]
     summary["trial_set_seeds"] = seeds
     return run.finish(summary, [])
 
