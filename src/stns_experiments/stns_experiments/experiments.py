@@ -32,7 +32,7 @@ PAPER = {
              "within_two_behaviours": 0.87, "random_arrivals_per_100": 2.04},
     "exp3": {"final_behaviours_to_goal": 6.85, "success_rate_r": 0.698,
              "success_rate_t2": 0.708, "success_rate_t3": 0.620,
-             "random_arrivals_per_100": 1.34, "first_situation_step": 1034.8},
+             "random_arrivals_per_100": 1.34, "first_situation_behaviours": 1034.8},
     "offline": {"ratio": 12.1},
     "grid": {"states_8d_polar": 78732, "states_8d_orthogonal": 321489},
 }
@@ -210,18 +210,46 @@ def task_stns(task: dict, progress) -> dict:
             world.set_fault(name, value)
         agent = make_agent(params, seeds["agent_seed"], world.observation_dim)
         steps = task["steps"]
-        recs, _ = run_loop(world, agent, steps, progress, params["max_ticks_per_step"])
+        watch = FirstExtraction(agent, progress)
+        recs, _ = run_loop(world, agent, steps, watch, params["max_ticks_per_step"])
     finally:
         world.close()
     table = R.head(R.to_table(recs), steps)
-    extra = {"first_situation_step": first_situation_step(table)}
+    extra = {"first_situation_step": first_situation_step(table),
+             "first_extraction_step": watch.step,
+             "first_extraction_behaviours": behaviours_up_to(table, watch.step)}
     return _finish(task, table, steps, extra, agent, t0)
 
 
+class FirstExtraction:
+    """A progress callback that notes the first behaviour step after which the learner
+    holds a situation (§7.3 counts the behaviours "needed for extracting the first
+    situation"), passing each call on to ``progress``."""
+
+    def __init__(self, agent, progress) -> None:
+        self.agent, self.progress = agent, progress
+        self.step: int | None = None
+
+    def __call__(self, steps: int) -> None:
+        if self.step is None and self.agent.learner.by_id:
+            # the record count at creation: a goal arrival's record follows the behaviour
+            # that extracted an R-situation within the same call
+            self.step = min(int(s.created) for s in self.agent.learner.by_id.values())
+        if self.progress is not None:
+            self.progress(steps)
+
+
 def first_situation_step(table: dict) -> int | None:
-    """Step of the first record classified into a situation (not 0)."""
+    """Step of the first record classified into a situation (not 0): its first use."""
     idx = np.nonzero((table["situation"] > 0) & ~table["arrival"])[0]
     return int(table["step"][idx[0]]) if len(idx) else None
+
+
+def behaviours_up_to(table: dict, step: int | None) -> int | None:
+    """Behaviours (records that are not goal arrivals) among steps 1..``step``."""
+    if step is None:
+        return None
+    return int(((table["step"] <= step) & ~table["arrival"]).sum())
 
 
 def task_random(task: dict, progress) -> dict:
@@ -517,9 +545,11 @@ def summarise_sets(results: list[dict], params: dict, steps: int) -> dict:
         out["set_cpu_seconds_mean"] = float(np.mean(cpus))
         out["behaviour_steps_per_cpu_second"] = float(steps * len(cpus) / np.sum(cpus))
     out["behaviour_steps_per_second"] = float(np.mean(sps)) if sps else None
-    fs = [r.get("first_situation_step") for r in results if r.get("first_situation_step")]
-    if fs:
-        out["first_situation_step_mean"] = float(np.mean(fs))
+    for key in ("first_situation_step", "first_extraction_step", "first_extraction_behaviours"):
+        vals = [r.get(key) for r in results if r.get(key)]
+        if vals:
+            out[f"{key}_mean"] = float(np.mean(vals))
+            out[f"{key}_sets"] = len(vals)
     return out
 
 

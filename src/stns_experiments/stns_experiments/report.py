@@ -54,8 +54,12 @@ def learning_table(s: dict) -> str:
         ("situations at the end (mean)", "6 (optimum, Fig. 5b)" if s["experiment"] == "exp1" else "-",
          _num(s.get("situations_final"), 1)),
     ]
+    if s.get("first_extraction_behaviours_mean") is not None:
+        rows.append(("first situation extracted after (behaviours, mean)",
+                     _num(paper.get("first_situation_behaviours"), 1),
+                     _num(s.get("first_extraction_behaviours_mean"), 1)))
     if s.get("first_situation_step_mean") is not None:
-        rows.append(("first situation after (steps, mean)", _num(paper.get("first_situation_step"), 1),
+        rows.append(("first step started in a situation (mean)", "-",
                      _num(s.get("first_situation_step_mean"), 1)))
     rows.append(("speed: behaviour steps per second per process (wall, shared CPU)", "-",
                  _num(s.get("behaviour_steps_per_second"), 0)))

@@ -35,6 +35,19 @@ def test_smoke_exp1(tmp_path):
     assert s["behaviour_steps_per_second"] > 0
 
 
+def test_first_extraction_is_the_learners_first_extracted_event(tmp_path):
+    from stns_core import StnsAgent
+    out, s = _run(tmp_path, ["exp1", "--steps", "700", "--seed", "1", "--no-figures"] + SMALL)
+    (res,) = [json.loads((out / "sets" / "set00.json").read_text())]
+    events = StnsAgent.load(out / "states" / "set00.npz").explain()["events"]
+    first = min(int(e["step"]) for e in events if e["event"] == "extracted")
+    assert res["first_extraction_step"] == first
+    # behaviours exclude the goal arrivals among those steps, and use follows extraction
+    assert 0 < res["first_extraction_behaviours"] < first
+    assert res["first_situation_step"] > first
+    assert s["first_extraction_behaviours_mean"] == res["first_extraction_behaviours"]
+
+
 def test_smoke_exp1_same_seed_same_records(tmp_path):
     a = _run(tmp_path / "a", ["exp1", "--steps", "120", "--no-figures"] + SMALL)[0]
     b = _run(tmp_path / "b", ["exp1", "--steps", "120", "--no-figures"] + SMALL)[0]
