@@ -448,9 +448,11 @@ def offline_figures(sets: list[dict], behaviours_per_arrival: float | None) -> d
     pos_t = [v for r in sets for v in per_kind(r, "T")]
     sum_r = float(np.mean([sum(per_kind(r, "R")) for r in sets]))
     sum_t = float(np.mean([sum(per_kind(r, "T")) for r in sets]))
+    # results written before 2 Dec have no sums: no figure rather than a wrong bound
+    has_totals = all("totals_collected_at" in r for r in sets)
     totals_done = [r for r in sets if r.get("totals_collected_at") is not None]
     rand_totals = sum(r["totals_collected_at"] if r.get("totals_collected_at") is not None
-                      else r["random_behaviours"] for r in sets)
+                      else r["random_behaviours"] for r in sets) if has_totals else None
     est = None
     if online and behaviours_per_arrival:
         est = (sum_r * behaviours_per_arrival + sum_t * 4.0) / (online / n)
@@ -466,8 +468,9 @@ def offline_figures(sets: list[dict], behaviours_per_arrival: float | None) -> d
         "positives_t_mean": float(np.mean(pos_t)) if pos_t else None,
         "positives_r_sum_mean": sum_r, "positives_t_sum_mean": sum_t,
         "situations_r_mean": len(pos_r) / n, "situations_t_mean": len(pos_t) / n,
-        "random_behaviours_totals_mean": rand_totals / n,
-        "ratio_measured_totals": rand_totals / online if online else None,
+        "random_behaviours_totals_mean": None if rand_totals is None else rand_totals / n,
+        "ratio_measured_totals": rand_totals / online if online and rand_totals is not None
+        else None,
         "ratio_totals_is_lower_bound": len(totals_done) < n,
         "ratio_paper_arithmetic": est,
         "paper_arithmetic": "(R positives summed over the R-situations x random behaviours per "

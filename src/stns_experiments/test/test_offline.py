@@ -148,3 +148,11 @@ def test_offline_figures_a_set_that_never_reached_the_sums_is_a_lower_bound():
     assert f["ratio_totals_is_lower_bound"] and f["ratio_is_lower_bound"]
     assert f["ratio_measured_totals"] == pytest.approx((300 + 400) / 2000)
     assert f["ratio_paper_arithmetic"] is None
+
+
+def test_offline_figures_results_without_the_sums_give_no_sums_ratio():
+    old = _set(1000, {"1": 10}, {"1": "R"}, 500, None)
+    del old["totals_collected_at"]
+    f = offline_figures([old], behaviours_per_arrival=40.0)
+    assert f["ratio_measured_totals"] is None and f["random_behaviours_totals_mean"] is None
+    assert f["ratio_measured"] == pytest.approx(0.5)
