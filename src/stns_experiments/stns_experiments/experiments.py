@@ -440,6 +440,7 @@ def offline_figures(sets: list[dict], behaviours_per_arrival: float | None) -> d
     """
     n = len(sets)
     online = sum(r["online_behaviours"] for r in sets)
+    rand = sum(r["random_behaviours"] for r in sets)
 
     def per_kind(r: dict, kind: str) -> list[int]:
         return [v for k, v in r["targets"].items() if r["target_kinds"][k] == kind]
@@ -458,9 +459,9 @@ def offline_figures(sets: list[dict], behaviours_per_arrival: float | None) -> d
         est = (sum_r * behaviours_per_arrival + sum_t * 4.0) / (online / n)
     return {
         "online_behaviours_mean": online / n,
-        "random_behaviours_mean": sum(r["random_behaviours"] for r in sets) / n,
+        "random_behaviours_mean": rand / n,
         "sets_all_collected": sum(1 for r in sets if r["all_collected"]),
-        "ratio_measured": sum(r["random_behaviours"] for r in sets) / online if online else None,
+        "ratio_measured": rand / online if online else None,
         "ratio_measured_per_set": [r["random_behaviours"] / r["online_behaviours"]
                                    for r in sets if r["online_behaviours"]],
         "ratio_is_lower_bound": any(not r["all_collected"] for r in sets),
