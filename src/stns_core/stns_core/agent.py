@@ -120,6 +120,8 @@ class StnsAgent:
         # margin_plan="nearest_r": outcomes (goal reached?) of the last plans started from the
         # margin with each R-situation's plan, newest last
         self._margin_uses: dict[int, list[bool]] = {}
+        # explore_untried: behaviours started in each situation since its extraction
+        self._tries: dict[int, list[int]] = {}
 
     # -- public API -------------------------------------------------------------------
     @property
@@ -379,12 +381,33 @@ class StnsAgent:
         ids = self.learner.by_id
         return all(d in ids or d == GOAL or d == 0 for _, d in self._plan)
 
+    def _untried(self, s: int) -> int | None:
+        """Option explore_untried K: a behaviour started fewer than K times in situation ``s``
+        since its extraction (the least-started, ties at random), else None. Not in the
+        margin, where the random behaviour already tries them all (algorithm.md, "Readings")."""
+        k = self.config.explore_untried
+        if not k or s == 0:
+            return None
+        tries = self._tries.get(s)
+        if tries is None:
+            ids = self.learner.by_id  # a new situation: forget those eliminated since
+            self._tries = {i: t for i, t in self._tries.items() if i in ids}
+            tries = self._tries[s] = [0] * self.n_behaviours
+        least = min(tries)
+        if least >= k:
+            return None
+        return int(self.rng.choice([b for b, t in enumerate(tries) if t == least]))
+
     def _begin(self, x: np.ndarray, continuing: bool) -> int:
         s = self.learner.classify(x)
         self._current = s
         greedy = False
         margin_root = 0
-        if (continuing and self._plan and self._prev_reached is not None
+        b_try = self._untried(s)
+        if b_try is not None:
+            b, d, planned = b_try, None, False  # run as the random behaviour is
+            self._plan = []
+        elif (continuing and self._plan and self._prev_reached is not None
                 and s == self._prev_reached and self._plan_alive()):
             b, d = self._plan.pop(0)
             planned = True
@@ -399,6 +422,8 @@ class StnsAgent:
             else:
                 (b, greedy), d, planned = self._explore(x), None, False
                 self._plan = []
+        if s in self._tries:
+            self._tries[s][int(b)] += 1
         self._run = _Running(x0=x.copy(), s0=s, b=int(b), target=d, planned=planned,
                              greedy=greedy, root=margin_root)
         return int(b)

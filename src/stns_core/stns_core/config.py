@@ -80,6 +80,7 @@ class StnsConfig:
     nn_window: int = 0
     margin_stn: str = "all"
     miss_stop: str = "never"
+    explore_untried: int = 0
     useless: str = "negative"
     relabel: str = "after_modification"
     iprl_memo: bool = True
@@ -105,7 +106,7 @@ class StnsConfig:
             "history_size": 2, "adjust_interval": 1, "seed": 0,
             "target_lookahead_ticks": 0, "max_behaviour_ticks": 0, "event_log_size": 1,
             "elimination_grace_steps": 0, "explore_max_ticks": 0, "r_break_window": 0,
-            "margin_plan_window": 0, "nn_window": 0,
+            "margin_plan_window": 0, "nn_window": 0, "explore_untried": 0,
         }
         for name, lowest in ints.items():
             value = getattr(self, name)

@@ -70,6 +70,8 @@ def save_agent(agent: StnsAgent, path: str | PathLike) -> None:
     }
     if agent._margin_uses:  # only when used (option margin_plan="nearest_r")
         meta["margin_uses"] = {str(k): v for k, v in agent._margin_uses.items()}
+    if agent._tries:  # only when used (option explore_untried)
+        meta["tries"] = {str(k): v for k, v in agent._tries.items()}
     arrays["meta"] = np.array(json.dumps(meta))
     directory = os.path.dirname(os.path.abspath(path))
     fd, tmp = tempfile.mkstemp(prefix=".stns-", suffix=".tmp", dir=directory)
@@ -158,4 +160,8 @@ def _restore(cls, arrays: dict[str, np.ndarray]) -> StnsAgent:
     agent._pending = [StepRecord.from_dict(r) for r in meta["pending"]]
     agent._margin_uses = {int(k): [bool(u) for u in v]
                           for k, v in meta.get("margin_uses", {}).items()}
+    agent._tries = {int(k): [int(t) for t in v] for k, v in meta.get("tries", {}).items()}
+    if any(len(t) != agent.n_behaviours for t in agent._tries.values()):
+        raise StnsStateError(f"tries per situation must have {agent.n_behaviours} entries "
+                             f"(n_behaviours), got {meta['tries']!r}")
     return agent

@@ -333,3 +333,45 @@ def test_margin_plan_bitten_reach_follows_the_nearest_miss_or_success():
     plain, rid2 = agent_with_r_situation(margin_plan="nearest_r", margin_plan_reach=3.0)
     plain.learner.add_record(miss, 0, 0, -1.0, miss, 0, False)
     assert plain._plan_root(x, 0) == rid2  # the unbitten reading ignores the miss
+
+
+def test_explore_untried_tries_every_behaviour_k_times_in_each_situation(tmp_path):
+    """explore_untried K: inside a situation the least-started behaviour is taken, unplanned,
+    until every behaviour has started K times there (the plan then rules again); off (0), the
+    R-situation's plan is taken every time; a saved learner keeps its counts."""
+    x = R_PTS[0] * 0.1  # inside the R-situation
+    off, rid = agent_with_r_situation()
+    assert off.classify(x) == rid
+    for _ in range(6):
+        assert off.step(x, 0.0, False) == 0 and off._run.planned
+        off.reset_trial()
+    agent, rid = agent_with_r_situation(explore_untried=2)
+    started = []
+    for _ in range(8):
+        b = agent.step(x, 0.0, False)
+        assert agent._run.planned is False and agent._run.target is None
+        started.append(b)
+        agent.reset_trial()
+    assert sorted(started) == [0, 0, 1, 1, 2, 2, 3, 3]
+    assert sorted(started[:4]) == [0, 1, 2, 3]  # the least-started first
+    assert agent._tries == {rid: [2, 2, 2, 2]}
+    agent.save(tmp_path / "a.npz")
+    for a in (agent, StnsAgent.load(tmp_path / "a.npz")):
+        assert a.step(x, 0.0, False) == 0 and a._run.planned  # K reached: R's plan
+        assert a._tries[rid] == [3, 2, 2, 2]
+    assert agent.step(FAR, 0.0, False) is not None  # the margin: not counted
+    assert set(agent._tries) == {rid}
+
+
+def test_explore_untried_forgets_eliminated_situations_and_checks_saved_counts(tmp_path):
+    agent, rid = agent_with_r_situation(explore_untried=1)
+    agent._tries = {rid + 7: [1, 1, 1, 1]}  # a situation since eliminated
+    agent.step(R_PTS[0] * 0.1, 0.0, False)
+    assert set(agent._tries) == {rid}
+    agent.reset_trial()
+    agent._tries[rid] = [1, 1]  # a wrong length, as a corrupt file would give
+    agent.save(tmp_path / "bad.npz")
+    with pytest.raises(StnsError, match="n_behaviours"):
+        StnsAgent.load(tmp_path / "bad.npz")
+    with pytest.raises(StnsError, match="explore_untried must be >= 0, got -1"):
+        StnsConfig(explore_untried=-1)
