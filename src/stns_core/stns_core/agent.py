@@ -64,6 +64,7 @@ class _Running:
     greedy: bool = False  # an exploration step chosen by exploration="greedy_goal"
     root: int = 0  # margin_plan="nearest_r": the R-situation the plan started from (0: none)
     approached: bool = False  # miss_stop: the target's centre has come nearer at least once
+    trying: bool = False  # explore_untried: a try of a behaviour little started in s0
 
     def to_dict(self) -> dict[str, Any]:
         d = {
@@ -78,6 +79,8 @@ class _Running:
             d["root"] = self.root
         if self.approached:
             d["approached"] = True
+        if self.trying:
+            d["trying"] = True
         return d
 
     @classmethod
@@ -218,7 +221,8 @@ class StnsAgent:
             if self._planned_stop(run, x, s_now):
                 return x, s_now
         elif (not run.planned and cfg.random_stop == "situation_change"
-              and s_now != run.s0):
+              and s_now != run.s0
+              and not (run.trying and cfg.explore_untried_stop == "reward")):
             return x, s_now
         if run.greedy and self._greedy_done(run.b, x):
             return x, s_now
@@ -384,7 +388,9 @@ class StnsAgent:
     def _untried(self, s: int) -> int | None:
         """Option explore_untried K: a behaviour started fewer than K times in situation ``s``
         since its extraction (the least-started, ties at random), else None. Not in the
-        margin, where the random behaviour already tries them all (algorithm.md, "Readings")."""
+        margin, where the random behaviour already tries them all. The try stops as the
+        random behaviour does, or with ``explore_untried_stop="reward"`` only on a reward (a
+        drive then runs on to the goal or a wall) (algorithm.md, "Readings")."""
         k = self.config.explore_untried
         if not k or s == 0:
             return None
@@ -404,8 +410,8 @@ class StnsAgent:
         greedy = False
         margin_root = 0
         b_try = self._untried(s)
-        if b_try is not None:
-            b, d, planned = b_try, None, False  # run as the random behaviour is
+        if b_try is not None:  # stopped as the random behaviour (explore_untried_stop)
+            b, d, planned = b_try, None, False
             self._plan = []
         elif (continuing and self._plan and self._prev_reached is not None
                 and s == self._prev_reached and self._plan_alive()):
@@ -425,6 +431,6 @@ class StnsAgent:
         if s in self._tries:
             self._tries[s][int(b)] += 1
         self._run = _Running(x0=x.copy(), s0=s, b=int(b), target=d, planned=planned,
-                             greedy=greedy, root=margin_root)
+                             greedy=greedy, root=margin_root, trying=b_try is not None)
         return int(b)
 

@@ -375,3 +375,24 @@ def test_explore_untried_forgets_eliminated_situations_and_checks_saved_counts(t
         StnsAgent.load(tmp_path / "bad.npz")
     with pytest.raises(StnsError, match="explore_untried must be >= 0, got -1"):
         StnsConfig(explore_untried=-1)
+
+
+@pytest.mark.parametrize("stop,ends_on_leaving", [("random_stop", True), ("reward", False)])
+def test_explore_untried_stop_reading(stop, ends_on_leaving):
+    """A try stops as the random behaviour does (here: on leaving its situation), or with
+    explore_untried_stop="reward" only on a reward: it runs on through the margin."""
+    agent, rid = agent_with_r_situation(explore_untried=1, explore_untried_stop=stop)
+    agent.step(R_PTS[0] * 0.1, 0.0, False)
+    assert agent._run.trying and not agent._run.planned
+    b = agent.step(FAR, 0.0, False)  # now in the margin
+    recs = agent.pop_records()
+    assert (len(recs) == 1) is ends_on_leaving
+    if ends_on_leaving:
+        assert recs[0].situation == rid and recs[0].next_situation == 0
+        assert agent._run.trying is False  # the margin is not counted
+    else:
+        assert agent._run.trying and agent._run.ticks == 1 and b == agent._run.b
+        agent.step(FAR, -1.0, False)  # a collision ends it
+        assert [r.reward for r in agent.pop_records()] == [-1.0]
+    with pytest.raises(StnsError, match="explore_untried_stop must be one of"):
+        StnsConfig(explore_untried_stop="never")
