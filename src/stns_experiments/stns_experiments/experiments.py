@@ -451,9 +451,10 @@ def offline_figures(sets: list[dict], behaviours_per_arrival: float | None) -> d
     sum_t = float(np.mean([sum(per_kind(r, "T")) for r in sets]))
     # results written before 2 Dec have no sums: no figure rather than a wrong bound
     has_totals = all("totals_collected_at" in r for r in sets)
-    totals_done = [r for r in sets if r.get("totals_collected_at") is not None]
-    rand_totals = sum(r["totals_collected_at"] if r.get("totals_collected_at") is not None
-                      else r["random_behaviours"] for r in sets) if has_totals else None
+    totals_at = [r.get("totals_collected_at") for r in sets]
+    rand_totals = (sum(r["random_behaviours"] if at is None else at  # not reached: all of it
+                       for r, at in zip(sets, totals_at, strict=True))
+                   if has_totals else None)
     est = None
     if online and behaviours_per_arrival:
         est = (sum_r * behaviours_per_arrival + sum_t * 4.0) / (online / n)
@@ -472,7 +473,7 @@ def offline_figures(sets: list[dict], behaviours_per_arrival: float | None) -> d
         "random_behaviours_totals_mean": None if rand_totals is None else rand_totals / n,
         "ratio_measured_totals": rand_totals / online if online and rand_totals is not None
         else None,
-        "ratio_totals_is_lower_bound": len(totals_done) < n,
+        "ratio_totals_is_lower_bound": None in totals_at,
         "ratio_paper_arithmetic": est,
         "paper_arithmetic": "(R positives summed over the R-situations x random behaviours per "
                             "arrival + T positives summed x 4) / on-line behaviours, per-set "
