@@ -65,6 +65,7 @@ class _Running:
     root: int = 0  # margin_plan="nearest_r": the R-situation the plan started from (0: none)
     approached: bool = False  # miss_stop: the target's centre has come nearer at least once
     trying: bool = False  # explore_untried: a try of a behaviour little started in s0
+    pending: bool = False  # pending_r_try: a try of a behaviour without an R-situation
 
     def to_dict(self) -> dict[str, Any]:
         d = {
@@ -81,6 +82,8 @@ class _Running:
             d["approached"] = True
         if self.trying:
             d["trying"] = True
+        if self.pending:
+            d["pending"] = True
         return d
 
     @classmethod
@@ -222,7 +225,8 @@ class StnsAgent:
                 return x, s_now
         elif (not run.planned and cfg.random_stop == "situation_change"
               and s_now != run.s0
-              and not (run.trying and cfg.explore_untried_stop == "reward")):
+              and not (run.trying and cfg.explore_untried_stop == "reward")
+              and not run.pending):
             return x, s_now
         if run.greedy and self._greedy_done(run.b, x):
             return x, s_now
@@ -404,14 +408,31 @@ class StnsAgent:
             return None
         return int(self.rng.choice([b for b, t in enumerate(tries) if t == least]))
 
+    def _pending_try(self, x: np.ndarray) -> int | None:
+        """Option pending_r_try="nearest_success": a behaviour that has reached the goal but
+        has no R-situation yet, tried where its nearest outcome was a goal arrival (one of
+        them at random), else None. Such a try runs unplanned and stops only on a reward, so
+        each one adds a goal arrival towards N_init^R or a miss that bites the region off
+        (algorithm.md, "Readings")."""
+        if self.config.pending_r_try == "never":
+            return None
+        cands = self.learner.pending_r_behaviours(x)
+        if not cands:
+            return None
+        return int(cands[0]) if len(cands) == 1 else int(self.rng.choice(cands))
+
     def _begin(self, x: np.ndarray, continuing: bool) -> int:
         s = self.learner.classify(x)
         self._current = s
         greedy = False
         margin_root = 0
         b_try = self._untried(s)
+        b_pending = None if b_try is not None else self._pending_try(x)
         if b_try is not None:  # stopped as the random behaviour (explore_untried_stop)
             b, d, planned = b_try, None, False
+            self._plan = []
+        elif b_pending is not None:  # stopped only on a reward
+            b, d, planned = b_pending, None, False
             self._plan = []
         elif (continuing and self._plan and self._prev_reached is not None
                 and s == self._prev_reached and self._plan_alive()):
@@ -431,6 +452,7 @@ class StnsAgent:
         if s in self._tries:
             self._tries[s][int(b)] += 1
         self._run = _Running(x0=x.copy(), s0=s, b=int(b), target=d, planned=planned,
-                             greedy=greedy, root=margin_root, trying=b_try is not None)
+                             greedy=greedy, root=margin_root, trying=b_try is not None,
+                             pending=b_pending is not None)
         return int(b)
 

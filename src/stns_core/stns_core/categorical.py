@@ -79,6 +79,30 @@ class Learner:
         d2 = np.sum(((h.x[members] - x) / sit.std) ** 2, axis=1)
         return bool(sit.pos[members][int(np.argmin(d2))])
 
+    def pending_r_behaviours(self, x: np.ndarray) -> list[int]:
+        """Option pending_r_try="nearest_success": behaviours that have reached a goal reward
+        (> ``r_min_r``) in the stored history but have no R-situation yet, and whose outcome
+        nearest to ``x`` was such a reward. An outcome is a record of the behaviour that ended
+        on a non-zero reward (a goal or a penalty); a step cut short without a reward says
+        nothing about where the behaviour leads. Distances are Euclidean, each input dimension
+        scaled by its standard deviation over the stored records (the NN test's metric)."""
+        h = self.hist
+        with_r = {s.behaviour for s in self.order if s.kind == R_KIND}
+        outcome = h.valid & (h.b >= 0) & (h.reward != 0.0)
+        goal = outcome & (h.reward > self.cfg.r_min_r)
+        pending = [b for b in np.unique(h.b[goal]).tolist() if b not in with_r]
+        if not pending:
+            return []
+        std = h.x[h.valid].std(axis=0)
+        std[std <= 0.0] = 1.0
+        out = []
+        for b in pending:
+            members = outcome & (h.b == b)
+            d2 = np.sum(((h.x[members] - x) / std) ** 2, axis=1)
+            if goal[members][int(np.argmin(d2))]:
+                out.append(int(b))
+        return out
+
     def classify_batch(self, xs: np.ndarray) -> np.ndarray:
         return self.classifier.classify_batch(xs, self.hist.x)
 

@@ -32,6 +32,7 @@ USELESS = ("negative", "no_positive_plan")
 MARGIN_STNS = ("all", "no_positives")
 MISS_STOPS = ("never", "margin", "all")
 EXPLORE_UNTRIED_STOPS = ("random_stop", "reward")
+PENDING_R_TRIES = ("never", "nearest_success")
 
 _PRESETS: dict[str, dict[str, Any]] = {
     # Paper section 7.1 (Exp. 1 and, from a saved learner, Exp. 2).
@@ -83,6 +84,7 @@ class StnsConfig:
     miss_stop: str = "never"
     explore_untried: int = 0
     explore_untried_stop: str = "random_stop"
+    pending_r_try: str = "never"
     useless: str = "negative"
     relabel: str = "after_modification"
     iprl_memo: bool = True
@@ -168,7 +170,7 @@ class StnsConfig:
             "target_stop": TARGET_STOPS, "plan_stop": PLAN_STOPS, "t_result": T_RESULTS,
             "margin_plan": MARGIN_PLANS, "useless": USELESS, "r_break_forget": R_BREAK_FORGETS,
             "margin_stn": MARGIN_STNS, "miss_stop": MISS_STOPS,
-            "explore_untried_stop": EXPLORE_UNTRIED_STOPS,
+            "explore_untried_stop": EXPLORE_UNTRIED_STOPS, "pending_r_try": PENDING_R_TRIES,
         }
         for name, allowed in choices.items():
             value = getattr(self, name)

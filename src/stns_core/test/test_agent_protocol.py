@@ -396,3 +396,62 @@ def test_explore_untried_stop_reading(stop, ends_on_leaving):
         assert [r.reward for r in agent.pop_records()] == [-1.0]
     with pytest.raises(StnsError, match="explore_untried_stop must be one of"):
         StnsConfig(explore_untried_stop="never")
+
+
+def agent_with_pending_drive(**overrides):
+    """Behaviour 0 has an R-situation; behaviour 1 reached the goal once at GOAL_AT, missed
+    with a penalty at MISS_AT and was cut short without a reward right beside GOAL_AT."""
+    agent, rid = agent_with_r_situation(**overrides)
+    lr = agent.learner
+    for p, reward, terminal in ((GOAL_AT, 10.0, True), (MISS_AT, -1.0, False),
+                                (GOAL_AT + 0.5, 0.0, False)):
+        lr.add_record(p, lr.classify(p), 1, reward, p, lr.classify(p), terminal)
+    assert [s.behaviour for s in lr.order] == [0]
+    return agent, rid
+
+
+GOAL_AT = np.array([12.0, 12.0])
+MISS_AT = np.array([-12.0, -12.0])
+
+
+def test_pending_r_try_drives_where_the_nearest_outcome_was_a_goal(tmp_path):
+    """pending_r_try="nearest_success": a behaviour with a goal arrival but no R-situation is
+    taken, unplanned, where its nearest outcome (a step ended on a reward) was the arrival,
+    not where it was a penalty; a step cut short without a reward is not an outcome. Off, it
+    is never taken there."""
+    near_goal, near_miss = GOAL_AT + 1.0, MISS_AT + 1.0
+    off, _ = agent_with_pending_drive(seed=3)
+    for _ in range(12):
+        off.step(near_goal, 0.0, False)
+        assert off._run.pending is False
+        off.reset_trial()
+    agent, _ = agent_with_pending_drive(pending_r_try="nearest_success")
+    assert agent.learner.pending_r_behaviours(near_goal) == [1]
+    assert agent.learner.pending_r_behaviours(near_miss) == []
+    assert agent.step(near_goal, 0.0, False) == 1
+    assert agent._run.pending and not agent._run.planned and agent._run.target is None
+    agent.save(tmp_path / "a.npz")
+    assert StnsAgent.load(tmp_path / "a.npz")._run.pending  # a running try is saved as such
+    agent.reset_trial()
+    agent.step(near_miss, 0.0, False)
+    assert agent._run.pending is False
+    with pytest.raises(StnsError, match="pending_r_try must be one of"):
+        StnsConfig(pending_r_try="yes")
+
+
+def test_pending_r_try_stops_only_on_a_reward_and_ends_with_the_r_situation():
+    """A try runs on through other situations until a reward ends it; once the behaviour has
+    its own R-situation it is no longer pending anywhere."""
+    agent, rid = agent_with_pending_drive(pending_r_try="nearest_success")
+    x_r = R_PTS[0] * 0.1
+    agent.step(GOAL_AT + 1.0, 0.0, False)
+    assert agent.step(x_r, 0.0, False) == 1 and agent._run.ticks == 1  # on through rid
+    assert agent.pop_records() == []
+    agent.step(x_r, -1.0, False)  # a penalty ends it
+    assert [(r.behaviour, r.reward, r.planned) for r in agent.pop_records()] == [(1, -1.0, False)]
+    lr = agent.learner
+    for k in range(3):  # three more arrivals: N_init^R + 1 = 4, so its R-situation is extracted
+        p = GOAL_AT + 0.2 * k
+        lr.add_record(p, lr.classify(p), 1, 10.0, p, lr.classify(p), True)
+    assert sorted(s.behaviour for s in lr.order if s.kind == "R") == [0, 1]
+    assert lr.pending_r_behaviours(GOAL_AT + 1.0) == []
