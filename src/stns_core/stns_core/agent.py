@@ -409,11 +409,12 @@ class StnsAgent:
         return int(self.rng.choice([b for b, t in enumerate(tries) if t == least]))
 
     def _pending_try(self, x: np.ndarray) -> int | None:
-        """Option pending_r_try="nearest_success": a behaviour that has reached the goal but
-        has no R-situation yet, tried where its nearest outcome was a goal arrival (one of
-        them at random), else None. Such a try runs unplanned and stops only on a reward, so
-        each one adds a goal arrival towards N_init^R or a miss that bites the region off
-        (algorithm.md, "Readings")."""
+        """Option pending_r_try: a behaviour that has reached the goal but has no R-situation
+        yet, tried where its nearest outcome was a goal arrival (one of them at random), else
+        None; "nearest_success" at any step, "planned_nearest_success" only instead of a
+        plan. Such a try runs unplanned and stops only on a reward, so each one adds a goal
+        arrival towards N_init^R or a miss that bites the region off (algorithm.md,
+        "Readings")."""
         if self.config.pending_r_try == "never":
             return None
         cands = self.learner.pending_r_behaviours(x)
@@ -427,7 +428,9 @@ class StnsAgent:
         greedy = False
         margin_root = 0
         b_try = self._untried(s)
-        b_pending = None if b_try is not None else self._pending_try(x)
+        b_pending = None
+        if b_try is None and self.config.pending_r_try == "nearest_success":
+            b_pending = self._pending_try(x)
         if b_try is not None:  # stopped as the random behaviour (explore_untried_stop)
             b, d, planned = b_try, None, False
             self._plan = []
@@ -448,6 +451,11 @@ class StnsAgent:
                 margin_root = root if root != s else 0
             else:
                 (b, greedy), d, planned = self._explore(x), None, False
+                self._plan = []
+        if planned and self.config.pending_r_try == "planned_nearest_success":
+            b_pending = self._pending_try(x)  # only instead of a plan: exploration as before
+            if b_pending is not None:
+                b, d, planned, margin_root = b_pending, None, False, 0
                 self._plan = []
         if s in self._tries:
             self._tries[s][int(b)] += 1

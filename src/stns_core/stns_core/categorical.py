@@ -80,7 +80,7 @@ class Learner:
         return bool(sit.pos[members][int(np.argmin(d2))])
 
     def pending_r_behaviours(self, x: np.ndarray) -> list[int]:
-        """Option pending_r_try="nearest_success": behaviours that have reached a goal reward
+        """Option pending_r_try: behaviours that have reached a goal reward
         (> ``r_min_r``) in the stored history but have no R-situation yet, and whose outcome
         nearest to ``x`` was such a reward. An outcome is a record of the behaviour that ended
         on a non-zero reward (a goal or a penalty); a step cut short without a reward says

@@ -32,7 +32,7 @@ USELESS = ("negative", "no_positive_plan")
 MARGIN_STNS = ("all", "no_positives")
 MISS_STOPS = ("never", "margin", "all")
 EXPLORE_UNTRIED_STOPS = ("random_stop", "reward")
-PENDING_R_TRIES = ("never", "nearest_success")
+PENDING_R_TRIES = ("never", "nearest_success", "planned_nearest_success")
 
 _PRESETS: dict[str, dict[str, Any]] = {
     # Paper section 7.1 (Exp. 1 and, from a saved learner, Exp. 2).

@@ -455,3 +455,23 @@ def test_pending_r_try_stops_only_on_a_reward_and_ends_with_the_r_situation():
         lr.add_record(p, lr.classify(p), 1, 10.0, p, lr.classify(p), True)
     assert sorted(s.behaviour for s in lr.order if s.kind == "R") == [0, 1]
     assert lr.pending_r_behaviours(GOAL_AT + 1.0) == []
+
+
+@pytest.mark.parametrize("mode,tried", [("nearest_success", True),
+                                        ("planned_nearest_success", False)])
+def test_pending_r_try_planned_reading_leaves_exploration_as_it_was(mode, tried):
+    """Where no plan has positive utility (one arrival of behaviour 1 among 20 penalties
+    from the margin), "nearest_success" still tries the pending behaviour beside its goal
+    arrival; "planned_nearest_success" tries it only instead of a plan, so the step is the
+    random behaviour of §6.2."""
+    agent = StnsAgent(StnsConfig(n_init_r=3, n_min_r=3, history_size=300,
+                                 pending_r_try=mode), obs_dim=2, n_behaviours=4)
+    lr = agent.learner
+    lr.add_record(GOAL_AT, 0, 1, 10.0, GOAL_AT, 0, True)
+    for k in range(20):
+        p = MISS_AT + [0.0, k]
+        lr.add_record(p, 0, 1, -1.0, p, 0, False)
+    assert lr.plan(0) == (0.0, [])
+    assert lr.pending_r_behaviours(GOAL_AT + 1.0) == [1]
+    agent.step(GOAL_AT + 1.0, 0.0, False)
+    assert agent._run.pending is tried and not agent._run.planned
