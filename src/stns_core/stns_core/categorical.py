@@ -85,7 +85,8 @@ class Learner:
         nearest to ``x`` was such a reward. An outcome is a record of the behaviour that ended
         on a non-zero reward (a goal or a penalty); a step cut short without a reward says
         nothing about where the behaviour leads. Distances are Euclidean, each input dimension
-        scaled by its standard deviation over the stored records (the NN test's metric)."""
+        scaled by its standard deviation over the stored records (no situation's shape exists
+        yet to scale by, as the NN test does)."""
         h = self.hist
         with_r = {s.behaviour for s in self.order if s.kind == R_KIND}
         outcome = h.valid & (h.b >= 0) & (h.reward != 0.0)
