@@ -76,8 +76,14 @@ class Learner:
         members = in_nn_window(sit.pos | sit.neg | missed, self._recent)
         if not members.any():
             return True
-        d2 = np.sum(((h.x[members] - x) / sit.std) ** 2, axis=1)
-        return bool(sit.pos[members][int(np.argmin(d2))])
+        return self._nearest_is(members, sit.pos, x, sit.std)
+
+    def _nearest_is(self, members: np.ndarray, label: np.ndarray, x: np.ndarray,
+                    scale: np.ndarray) -> bool:
+        """``label`` of the stored record among ``members`` (history-slot masks) nearest to
+        ``x``, Euclidean with each dimension divided by ``scale``; ``members`` is not empty."""
+        d2 = np.sum(((self.hist.x[members] - x) / scale) ** 2, axis=1)
+        return bool(label[members][int(np.argmin(d2))])
 
     def pending_r_behaviours(self, x: np.ndarray) -> list[int]:
         """Option pending_r_try: behaviours that have reached a goal reward
@@ -96,13 +102,7 @@ class Learner:
             return []
         std = h.x[h.valid].std(axis=0)
         std[std <= 0.0] = 1.0
-        out = []
-        for b in pending:
-            members = outcome & (h.b == b)
-            d2 = np.sum(((h.x[members] - x) / std) ** 2, axis=1)
-            if goal[members][int(np.argmin(d2))]:
-                out.append(int(b))
-        return out
+        return [int(b) for b in pending if self._nearest_is(outcome & (h.b == b), goal, x, std)]
 
     def classify_batch(self, xs: np.ndarray) -> np.ndarray:
         return self.classifier.classify_batch(xs, self.hist.x)
