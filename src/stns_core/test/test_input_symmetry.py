@@ -21,7 +21,8 @@ from stns_core import StnsAgent, StnsConfig
 IMPROVED = {"target_stop": "deepest", "target_lookahead_ticks": 1,
             "plan_stop": "higher_utility", "t_result": "unpunished",
             "margin_plan": "nearest_r_bitten", "margin_plan_reach": 2.5,
-            "margin_plan_window": 0, "miss_stop": "all", "nn_window": 300}
+            "margin_plan_window": 0, "miss_stop": "all",
+            "pending_r_try": "planned_nearest_success", "nn_window": 300}
 
 
 def _run(turn: bool, steps: int, **overrides):
