@@ -226,7 +226,29 @@ def code_note(runs: list[dict], any_code: bool) -> str:
                     f"(git diff of {', '.join(LIBRARY_DIRS)})")
     if dirty:
         note += f"; uncommitted library files at run time: {', '.join(dirty)}"
+    outside = outside_note(runs)
+    if outside:
+        if not any_code:
+            raise ExperimentError(
+                f"a run used library code from outside its workspace ({outside}), so its "
+                f"commit does not name the code; pass --any-code to pool it anyway")
+        note += f"; LIBRARIES FROM OUTSIDE THE WORKSPACE: {outside}"
     return note
+
+
+def outside_note(runs: list[dict]) -> str:
+    """The libraries the runs imported from outside their workspace (``code_version``'s
+    "outside"), one entry per run and library, or ''."""
+    parts = []
+    for r in runs:
+        v = r["summary"].get("code_version") or {}
+        for name, o in sorted((v.get("outside") or {}).items()):
+            o = o if isinstance(o, dict) else {}
+            what = f"commit {o['commit']}" if o.get("commit") else "no git commit"
+            if o.get("uncommitted"):
+                what += f", uncommitted {', '.join(map(str, o['uncommitted']))}"
+            parts.append(f"{r['folder']}: {name} from {o.get('path', '?')} ({what})")
+    return "; ".join(parts)
 
 
 def window_levels(results: list[dict], params: dict, steps: int) -> dict[str, float]:

@@ -29,7 +29,14 @@ from stns_experiments.experiments import (
     situations_of,
     summarise_sets,
 )
-from stns_experiments.runner import run_tasks, set_seeds, workspace_root, write_json
+from stns_experiments.runner import (
+    git_state,
+    outside_libraries,
+    run_tasks,
+    set_seeds,
+    workspace_root,
+    write_json,
+)
 
 log = logging.getLogger("stns_experiments")
 
@@ -119,21 +126,25 @@ class Run:
 
 
 def code_version() -> dict[str, Any]:
-    """Git commit of the workspace and whether the two libraries had uncommitted changes."""
-    import subprocess
+    """Git commit of the workspace, the library files that differed from it, and under
+    "outside" any library imported from elsewhere (``runner.outside_libraries``)."""
+    import importlib.util
 
     d = workspace_root()
     if d is None:
         return {}
-    try:
-        head = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=d, capture_output=True,
-                              text=True, timeout=10).stdout.strip()
-        dirty = subprocess.run(["git", "status", "--porcelain", "src/stns_core", "src/rover_sim",
-                                "src/stns_experiments"], cwd=d, capture_output=True, text=True,
-                               timeout=10).stdout.split("\n")
-    except (OSError, subprocess.SubprocessError):
+    state = git_state(d, ["src/stns_core", "src/rover_sim", "src/stns_experiments"])
+    if state is None:
         return {}
-    return {"commit": head, "uncommitted": [ln[3:] for ln in dirty if ln.strip()]}
+    packages = {}
+    for name in ("stns_core", "rover_sim", "stns_experiments"):
+        spec = importlib.util.find_spec(name)
+        if spec is not None and spec.origin:
+            packages[name] = Path(spec.origin).parent
+    outside = outside_libraries(d, packages)
+    if outside:
+        state["outside"] = outside
+    return state
 
 
 def _seeds(params: dict, stream: int = STREAM_LEARNER) -> list[dict]:

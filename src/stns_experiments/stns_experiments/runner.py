@@ -236,12 +236,51 @@ def _call_inline(fn, task, prog):
         return task["key"], None, str(e)
 
 
-def workspace_root() -> Path | None:
-    """The git workspace this package runs from (symlink install resolved), or None."""
-    for d in Path(__file__).resolve().parents:
-        if (d / ".git").exists():
+def workspace_root(start: Path | None = None) -> Path | None:
+    """The git workspace this package (or the file ``start``) runs from, symlinks resolved,
+    or None."""
+    for d in Path(start or __file__).resolve().parents:
+        if (d / ".git").exists():  # a directory, or a file in a git worktree
             return d
     return None
+
+
+def git_state(root: Path, paths: list[str]) -> dict[str, Any] | None:
+    """{"commit": short HEAD, "uncommitted": files under ``paths`` that differ from it} of
+    the git workspace ``root``, or None when git cannot tell."""
+    import subprocess
+
+    try:
+        head = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=root,
+                              capture_output=True, text=True, timeout=10)
+        dirty = subprocess.run(["git", "status", "--porcelain", *paths], cwd=root,
+                               capture_output=True, text=True, timeout=10)
+    except (OSError, subprocess.SubprocessError):
+        return None
+    if head.returncode != 0 or dirty.returncode != 0:
+        return None
+    return {"commit": head.stdout.strip(),
+            "uncommitted": [ln[3:] for ln in dirty.stdout.split("\n") if ln.strip()]}
+
+
+def outside_libraries(root: Path, packages: dict[str, Path]) -> dict[str, dict[str, Any]]:
+    """The packages (name -> package directory) that are imported from outside the
+    workspace ``root``, e.g. another checkout put first on PYTHONPATH, each with its path and,
+    when it lies in a git workspace of its own, that workspace's commit and uncommitted files.
+    The workspace's commit alone would otherwise name code the run did not use."""
+    root = Path(root).resolve()
+    out: dict[str, dict[str, Any]] = {}
+    for name, pkg in packages.items():
+        pkg = Path(pkg).resolve()
+        if pkg == root or root in pkg.parents:
+            continue
+        entry: dict[str, Any] = {"path": str(pkg)}
+        own = workspace_root(pkg / "__init__.py")
+        state = git_state(own, [str(pkg.relative_to(own))]) if own is not None else None
+        if state is not None:
+            entry.update(state)
+        out[name] = entry
+    return out
 
 
 def write_json(path: Path, data: Any) -> None:
