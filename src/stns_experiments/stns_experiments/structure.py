@@ -138,6 +138,21 @@ def split_levels(tables: list[dict[str, np.ndarray]], steps: list[int | None], b
     return out
 
 
+def read_tables(folder: Path, pattern: str) -> list[dict[str, np.ndarray]]:
+    """The record files ``records/<pattern>`` of a run folder, read; a clear error when there
+    are none or one is not a readable record file."""
+    files = sorted((Path(folder) / "records").glob(pattern))
+    if not files:
+        raise ExperimentError(f"{str(folder)!r}: no per-step records records/{pattern}")
+    tables = []
+    for f in files:
+        try:
+            tables.append(R.read_csv(f))
+        except (OSError, EOFError, ValueError, KeyError, IndexError, csv.Error) as e:
+            raise ExperimentError(f"{str(f)!r}: not a readable record file: {e}") from None
+    return tables
+
+
 def load_tables(folder: Path) -> tuple[list[dict[str, np.ndarray]], int]:
     """The record tables of an Exp. 1 or Exp. 3 run folder and its final window."""
     folder = Path(folder)
@@ -148,15 +163,7 @@ def load_tables(folder: Path) -> tuple[list[dict[str, np.ndarray]], int]:
     if params.get("experiment") not in ANALYSABLE:
         raise ExperimentError(f"{str(folder)!r}: experiment {params.get('experiment')!r} has "
                               f"no structure analysis (only {', '.join(ANALYSABLE)})")
-    files = sorted((folder / "records").glob("set*.csv*"))
-    if not files:
-        raise ExperimentError(f"{str(folder)!r}: no per-step records in records/")
-    tables = []
-    for f in files:
-        try:
-            tables.append(R.read_csv(f))
-        except (OSError, EOFError, ValueError, KeyError, IndexError, csv.Error) as e:
-            raise ExperimentError(f"{str(f)!r}: not a readable record file: {e}") from None
+    tables = read_tables(folder, "set*.csv*")
     fw = params.get("final_window", 1000)
     if isinstance(fw, bool) or not isinstance(fw, int) or fw < 1:
         raise ExperimentError(f"{str(folder)!r}: final_window must be a positive integer, "
