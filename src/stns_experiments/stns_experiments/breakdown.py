@@ -148,7 +148,7 @@ def describe(folders: list[Path], spans: list[tuple[int, int]] | None, level: st
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(prog="python -m stns_experiments.breakdown",
-                                 description=__doc__.split("\n\n")[1].strip())
+                                 description=__doc__.split("\n\n")[0])
     ap.add_argument("runs", nargs="+", type=Path, help="run folders with per-step records")
     ap.add_argument("--span", action="append", metavar="A:B",
                     help="steps A < step <= B (repeatable; default: steps 1-500, 501-1000, "
