@@ -24,8 +24,7 @@ from pathlib import Path
 import numpy as np
 
 from stns_experiments.config import ExperimentError
-from stns_experiments.pool import read_json
-from stns_experiments.structure import read_tables
+from stns_experiments.structure import positive_int, read_tables, run_params
 
 KINDS = (("0", "margin"), ("R", "R"), ("T", "T"))
 ANALYSABLE = ("exp1", "exp3", "exp2-sensor", "exp2-actuator")
@@ -79,20 +78,10 @@ def load(folder: Path, level: str | None, mode: str) -> tuple[list[dict[str, np.
                                                                int]:
     """The record tables of a run folder (Exp. 2: of one level and mode), its steps and final
     window."""
-    folder = Path(folder)
-    if not (folder / "config.json").is_file():
-        raise ExperimentError(f"{str(folder)!r}: no config.json (not a run folder)")
-    cfg = read_json(folder / "config.json", "run config")
-    p = (cfg.get("params") if isinstance(cfg, dict) else None) or {}
-    exp = p.get("experiment")
-    if exp not in ANALYSABLE:
-        raise ExperimentError(f"{str(folder)!r}: experiment {exp!r} has no per-step records "
-                              f"to break down (only {', '.join(ANALYSABLE)})")
-    steps, fw = p.get("steps"), p.get("final_window", 1000)
-    for name, v in (("steps", steps), ("final_window", fw)):
-        if isinstance(v, bool) or not isinstance(v, int) or v < 1:
-            raise ExperimentError(f"{str(folder)!r}: {name} must be a positive integer, "
-                                  f"got {v!r}")
+    p = run_params(folder, ANALYSABLE, "has no per-step records to break down")
+    exp = p["experiment"]
+    steps = positive_int(folder, p, "steps")
+    fw = positive_int(folder, p, "final_window", 1000)
     if str(exp).startswith("exp2"):
         if level is None:
             raise ExperimentError(f"{str(folder)!r} is an {exp} run: name the fault with "

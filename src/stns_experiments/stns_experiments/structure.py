@@ -153,22 +153,34 @@ def read_tables(folder: Path, pattern: str) -> list[dict[str, np.ndarray]]:
     return tables
 
 
-def load_tables(folder: Path) -> tuple[list[dict[str, np.ndarray]], int]:
-    """The record tables of an Exp. 1 or Exp. 3 run folder and its final window."""
+def run_params(folder: Path, analysable: tuple[str, ...], refusal: str) -> dict:
+    """The recorded parameters of a run folder whose experiment is one of ``analysable``;
+    otherwise a clear error, saying the experiment ``refusal`` (e.g. "has no structure
+    analysis")."""
     folder = Path(folder)
     if not (folder / "config.json").is_file():
         raise ExperimentError(f"{str(folder)!r}: no config.json (not a run folder)")
     cfg = read_json(folder / "config.json", "run config")
     params = (cfg.get("params") if isinstance(cfg, dict) else None) or {}
-    if params.get("experiment") not in ANALYSABLE:
-        raise ExperimentError(f"{str(folder)!r}: experiment {params.get('experiment')!r} has "
-                              f"no structure analysis (only {', '.join(ANALYSABLE)})")
+    if params.get("experiment") not in analysable:
+        raise ExperimentError(f"{str(folder)!r}: experiment {params.get('experiment')!r} "
+                              f"{refusal} (only {', '.join(analysable)})")
+    return params
+
+
+def positive_int(folder: Path, params: dict, name: str, default: int | None = None) -> int:
+    """The run parameter ``name`` (``default`` when absent), which must be a positive int."""
+    v = params.get(name, default)
+    if isinstance(v, bool) or not isinstance(v, int) or v < 1:
+        raise ExperimentError(f"{str(folder)!r}: {name} must be a positive integer, got {v!r}")
+    return v
+
+
+def load_tables(folder: Path) -> tuple[list[dict[str, np.ndarray]], int]:
+    """The record tables of an Exp. 1 or Exp. 3 run folder and its final window."""
+    params = run_params(folder, ANALYSABLE, "has no structure analysis")
     tables = read_tables(folder, "set*.csv*")
-    fw = params.get("final_window", 1000)
-    if isinstance(fw, bool) or not isinstance(fw, int) or fw < 1:
-        raise ExperimentError(f"{str(folder)!r}: final_window must be a positive integer, "
-                              f"got {fw!r}")
-    return tables, fw
+    return tables, positive_int(folder, params, "final_window", 1000)
 
 
 def describe(folders: list[Path], by: int, span: int, min_share: float) -> str:
