@@ -17,7 +17,6 @@ them anyway, named in the output).
 from __future__ import annotations
 
 import argparse
-import json
 import math
 import subprocess
 import sys
@@ -35,6 +34,7 @@ from stns_experiments.experiments import (
     random_summary,
     summarise_sets,
 )
+from stns_experiments.report import read_json
 from stns_experiments.runner import workspace_root, write_json
 
 # parameters that may differ between pooled runs: they choose which trial sets a run holds
@@ -48,16 +48,6 @@ REPORT_ONLY = ("stns_experiments/pool.py", "stns_experiments/report.py",
                "stns_experiments/plots.py", "stns_experiments/structure.py",
                "stns_experiments/bootstrap.py", "stns_experiments/breakdown.py")
 POOLABLE = ("exp1", "exp3", "exp2-sensor", "exp2-actuator")
-
-
-def read_json(path: Path, what: str) -> Any:
-    """The JSON content of a file; a missing or unreadable file is named (with ``what``)."""
-    try:
-        return json.loads(path.read_text())
-    except FileNotFoundError:
-        raise ExperimentError(f"{what}: {str(path)!r} does not exist") from None
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as e:
-        raise ExperimentError(f"{what}: {str(path)!r} is not readable JSON: {e}") from None
 
 
 SET_KEYS = ("key", "block_behaviours", "block_arrivals", "final_behaviours", "final_arrivals")

@@ -8,9 +8,35 @@ that produced them (taken from summary.json), so the report is never typed by ha
 
 from __future__ import annotations
 
+import argparse
 import json
 import sys
 from pathlib import Path
+from typing import Any
+
+from stns_experiments.config import EXPERIMENTS, ExperimentError
+
+
+def read_json(path: Path, what: str) -> Any:
+    """The JSON content of a file; a missing or unreadable file is named (with ``what``)."""
+    try:
+        return json.loads(path.read_text())
+    except FileNotFoundError:
+        raise ExperimentError(f"{what}: {str(path)!r} does not exist") from None
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as e:
+        raise ExperimentError(f"{what}: {str(path)!r} is not readable JSON: {e}") from None
+
+
+def read_summary(folder: Path) -> dict[str, Any]:
+    """A run folder's summary.json, checked to be the summary of one of the experiments."""
+    path = folder / "summary.json"
+    s = read_json(path, "run summary")
+    exp = s.get("experiment") if isinstance(s, dict) else None
+    if exp not in EXPERIMENTS:
+        raise ExperimentError(
+            f"run summary: {str(path)!r} is not the summary of an experiment (its "
+            f"\"experiment\" is {exp!r}; expected one of {', '.join(EXPERIMENTS)})")
+    return s
 
 
 def _pct(v) -> str:
@@ -143,7 +169,16 @@ def offline_table(s: dict) -> str:
 
 
 def describe(folder: Path) -> str:
-    s = json.loads((folder / "summary.json").read_text())
+    """The Markdown section of one run folder: its command and its table."""
+    s = read_summary(folder)
+    try:
+        return _describe(folder, s)
+    except (AttributeError, KeyError, TypeError, ValueError) as e:
+        raise ExperimentError(f"run summary: {str(folder / 'summary.json')!r} holds a value "
+                              f"of the wrong kind ({type(e).__name__}: {e})") from None
+
+
+def _describe(folder: Path, s: dict[str, Any]) -> str:
     exp = s["experiment"]
     lines = [f"### {exp}: `{folder}`", "",
              f"Command: `{s.get('command')}` (seed {s.get('seed')}, {s.get('trial_sets')} trial "
@@ -163,9 +198,16 @@ def describe(folder: Path) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
-    args = sys.argv[1:] if argv is None else argv
-    for a in args:
-        sys.stdout.write(describe(Path(a)) + "\n")
+    ap = argparse.ArgumentParser(prog="python -m stns_experiments.report",
+                                 description=__doc__.split("\n\n")[0])
+    ap.add_argument("runs", nargs="+", type=Path, help="run folders (with summary.json)")
+    args = ap.parse_args(argv)
+    try:
+        text = "".join(describe(f) + "\n" for f in args.runs)
+    except ExperimentError as e:
+        sys.stderr.write(f"error: {e}\n")
+        return 2
+    sys.stdout.write(text)
     return 0
 
 

@@ -30,7 +30,7 @@ import numpy as np
 from stns_experiments import metrics as M
 from stns_experiments import records as R
 from stns_experiments.config import ExperimentError
-from stns_experiments.pool import read_json
+from stns_experiments.report import read_json
 
 GOAL_TARGET = -1  # records.to_table writes a goal target (None) as -1
 ANALYSABLE = ("exp1", "exp3")

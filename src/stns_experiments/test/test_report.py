@@ -1,0 +1,86 @@
+"""The Markdown report of run folders (stns_experiments.report): its tables on small
+synthetic summaries with known figures, and its errors on bad run folders."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+from stns_experiments.config import ExperimentError
+
+from stns_experiments import report
+
+
+def _run(tmp_path, summary, name="run"):
+    folder = tmp_path / name
+    folder.mkdir()
+    (folder / "summary.json").write_text(
+        summary if isinstance(summary, str) else json.dumps(summary))
+    return folder
+
+
+EXP1 = {
+    "experiment": "exp1", "command": "stns-experiment exp1 --seed 3", "seed": 3,
+    "trial_sets": 2, "steps": 500, "wall_seconds": 12.4, "final_window": 100,
+    "paper": {"convergence_step": 1200, "final_behaviours_to_goal": 2.2,
+              "success_rate_r": 0.943},
+    "convergence_step": 300, "final_behaviours_to_goal": 2.125,
+    "success_rate_r": 0.5, "success_counts_r": [7, 14],
+}
+
+EXP2 = {
+    "experiment": "exp2-sensor", "command": "c", "seed": 0, "trial_sets": 1, "steps": 500,
+    "levels": {"10deg": {
+        "relearn": {"final_behaviours_to_goal": 2.5, "trial_sets": 4,
+                    "behaviours_to_goal_by_block": [4.0, 3.0, 2.0]},
+        "scratch": {"final_behaviours_to_goal": 2.25},
+        "relearn_reaches_at": 250, "scratch_reaches_at": 750, "delay_steps": -500,
+        "blocks_worse_than_prefault": 2, "eliminated_after_fault_mean": 0.25,
+        "sets_without_elimination": 3, "original_situations_gone_mean": 0.5,
+        "situations_before_mean": 6.0}},
+}
+
+
+def test_exp1_table_sets_the_measured_figures_beside_the_papers(tmp_path):
+    text = report.describe(_run(tmp_path, EXP1))
+    assert "Command: `stns-experiment exp1 --seed 3` (seed 3, 2 trial sets x 500 steps; " \
+           "wall 12 s)" in text
+    assert "| convergence (block rule), steps | 1200 | 300 |" in text
+    assert "| behaviours to goal, last 100 steps | 2.20 | 2.12 |" in text
+    assert "| success from R situations | 94.3 % | 50.0 % (7/14) |" in text
+    assert "| success from T situations | - | - |" in text  # absent figures print "-"
+
+
+def test_exp2_row_per_fault(tmp_path):
+    text = report.describe(_run(tmp_path, EXP2))
+    assert "| 10deg | 2.50 | 2.25 | 250 | 750 | -500 | 2 of 3 | 0.2 | 3/4 | 0.5 of 6.0 |" in text
+
+
+def test_main_prints_every_folder_in_order(tmp_path, capsys):
+    a, b = _run(tmp_path, EXP1, "a"), _run(tmp_path, EXP2, "b")
+    assert report.main([str(a), str(b)]) == 0
+    out = capsys.readouterr().out
+    assert out.index("### exp1: `") < out.index("### exp2-sensor: `")
+
+
+@pytest.mark.parametrize("summary, message", [
+    (None, "does not exist"),
+    ("{bad", "is not readable JSON"),
+    ("[1, 2]", "is not the summary of an experiment (its \"experiment\" is None"),
+    ({"experiment": "exp9"}, "its \"experiment\" is 'exp9'"),
+    ({**EXP1, "final_behaviours_to_goal": "fast"}, "holds a value of the wrong kind"),
+    ({**EXP2, "levels": {"10deg": 3}}, "holds a value of the wrong kind"),
+])
+def test_bad_run_folders_are_named(tmp_path, summary, message):
+    folder = tmp_path / "run" if summary is None else _run(tmp_path, summary)
+    with pytest.raises(ExperimentError, match="summary.json") as err:
+        report.describe(folder)
+    assert message in str(err.value)
+
+
+def test_main_reports_the_error_and_prints_nothing(tmp_path, capsys):
+    good = _run(tmp_path, EXP1, "good")
+    assert report.main([str(good), str(tmp_path / "missing")]) == 2
+    out, err = capsys.readouterr()
+    assert out == ""
+    assert err.startswith("error: run summary: ") and "missing" in err
