@@ -61,7 +61,9 @@ def _is_count(v: Any) -> bool:
     return isinstance(v, int) and not isinstance(v, bool) and v >= 0
 
 
-def _read_set(path: Path, what: str, exp2: bool = False) -> dict:
+def read_set(path: Path, what: str, exp2: bool = False) -> dict:
+    """A trial set's result file (sets/*.json) of an STNS learner, checked: its block and
+    final counts (and for Exp. 2 its mode and level) are there and are counts."""
     r = read_json(path, what)
     need = SET_KEYS + (("mode", "level") if exp2 else ())
     missing = [k for k in need if not isinstance(r, dict) or k not in r]
@@ -90,7 +92,7 @@ def load_run(folder: Path) -> dict[str, Any]:
     if exp not in POOLABLE:
         raise ExperimentError(f"{str(folder)!r}: experiment {exp!r} cannot be pooled "
                               f"(poolable: {', '.join(POOLABLE)})")
-    sets = [_read_set(f, "trial-set result", str(exp).startswith("exp2"))
+    sets = [read_set(f, "trial-set result", str(exp).startswith("exp2"))
             for f in _set_files(folder)]
     if not sets:
         raise ExperimentError(f"{str(folder)!r}: no trial-set results in sets/")
@@ -105,7 +107,7 @@ def load_run(folder: Path) -> dict[str, Any]:
             # --from is recorded as given, relative to where the run was started
             base = folder.resolve().parent.parent / base
         run["base_dir"] = base.resolve()
-        run["base_sets"] = [_read_set(f, "pre-training result") for f in _set_files(base)]
+        run["base_sets"] = [read_set(f, "pre-training result") for f in _set_files(base)]
     return run
 
 

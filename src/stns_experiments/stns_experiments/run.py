@@ -29,6 +29,8 @@ from stns_experiments.experiments import (
     situations_of,
     summarise_sets,
 )
+from stns_experiments.pool import read_set
+from stns_experiments.report import read_json
 from stns_experiments.runner import (
     git_state,
     outside_libraries,
@@ -48,6 +50,18 @@ SUMMARY_KEYS = (
 )
 
 STREAM_LEARNER, STREAM_RANDOM, STREAM_SCRATCH, STREAM_FAULT = 0, 1, 2, 3
+
+
+def _finished(task: dict, path: Path) -> dict:
+    """--resume: the result file of a finished task, checked to be that task's result."""
+    what = "--resume: finished trial set (move the file away to run the set again)"
+    if task["fn"] in ("stns", "exp2"):
+        r = read_set(path, what, exp2=task["fn"] == "exp2")
+    else:
+        r = read_json(path, what)
+    if not isinstance(r, dict) or r.get("key") != task["key"]:
+        raise ExperimentError(f"{what}: {str(path)!r} is not the result of {task['key']!r}")
+    return r
 
 
 class Run:
@@ -72,7 +86,7 @@ class Run:
             for t in tasks:
                 f = Path(t["out"]) / "sets" / f"{t['key']}.json"
                 if f.is_file():
-                    done[t["key"]] = json.loads(f.read_text())
+                    done[t["key"]] = _finished(t, f)
             tasks = [t for t in tasks if t["key"] not in done]
             if done:
                 log.info("resume: %d finished task(s) loaded, %d to run", len(done), len(tasks))
@@ -285,7 +299,7 @@ def run_exp2(run: Run) -> dict:
         for st in states[:n]:
             rj = base_dir / "sets" / (st.stem + ".json")
             if rj.exists():
-                base_results.append(json.loads(rj.read_text()))
+                base_results.append(read_json(rj, f"--from: pre-training result of {st.name}"))
         _check_base_configs(p, states[:n])
         base_states = [str(s) for s in states[:n]]
     else:

@@ -109,3 +109,23 @@ def test_resume_reuses_finished_trial_sets(tmp_path):
     s2 = json.loads((out / "summary.json").read_text())
     assert (out / "sets" / "set00.json").stat().st_mtime_ns == stamp
     assert s2["behaviours_to_goal_by_block"] == s1["behaviours_to_goal_by_block"]
+
+
+@pytest.mark.parametrize("content, message", [
+    ("{cut", "is not readable JSON"),
+    ('{"key": "set00"}', "lacks block_behaviours, block_arrivals"),
+    ('{"key": "set07", "block_behaviours": [3], "block_arrivals": [1], '
+     '"final_behaviours": 3, "final_arrivals": 1}', "is not the result of 'set00'"),
+])
+def test_resume_names_a_damaged_result_file_and_keeps_the_run(tmp_path, capsys, content,
+                                                             message):
+    """A damaged sets/*.json is named (not silently re-run over, not a traceback), and the
+    run's summary and records stay as they were."""
+    out, _ = _run(tmp_path, ["exp1", "--steps", "120", "--no-figures"] + SMALL)
+    (out / "sets" / "set00.json").write_text(content)
+    before = {p: p.read_bytes() for p in (out / "summary.json", out / "records" / "set00.csv.gz")}
+    code = main(["exp1", "--steps", "120", "--no-figures", "--resume", "--out", str(out)] + SMALL)
+    assert code == 2
+    err = capsys.readouterr().err
+    assert "--resume: finished trial set" in err and "set00.json" in err and message in err
+    assert all(p.read_bytes() == b for p, b in before.items())
