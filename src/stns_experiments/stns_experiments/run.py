@@ -299,7 +299,7 @@ def run_exp2(run: Run) -> dict:
         for st in states[:n]:
             rj = base_dir / "sets" / (st.stem + ".json")
             if rj.exists():
-                base_results.append(read_json(rj, f"--from: pre-training result of {st.name}"))
+                base_results.append(read_set(rj, f"--from: pre-training result of {st.name}"))
         _check_base_configs(p, states[:n])
         base_states = [str(s) for s in states[:n]]
     else:

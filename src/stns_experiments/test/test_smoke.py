@@ -129,3 +129,16 @@ def test_resume_names_a_damaged_result_file_and_keeps_the_run(tmp_path, capsys, 
     err = capsys.readouterr().err
     assert "--resume: finished trial set" in err and "set00.json" in err and message in err
     assert all(p.read_bytes() == b for p, b in before.items())
+
+
+def test_from_names_a_damaged_pre_training_result(tmp_path, capsys):
+    out, _ = _run(tmp_path, ["exp2-sensor", "--steps", "50", "--levels", "20", "--no-figures",
+                             "--set", "pretrain_steps=100"] + SMALL)
+    (out / "base" / "sets" / "set00.json").write_text('{"key": "set00", "block_arrivals": []}')
+    argv = ["exp2-sensor", "--steps", "50", "--levels", "20", "--no-figures", "--from",
+            str(out / "base"), "--out", str(tmp_path / "again")] + SMALL
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert "--from: pre-training result of set00.npz" in err
+    assert "set00.json' lacks block_behaviours, final_behaviours, final_arrivals" in err
+    assert not (tmp_path / "again" / "summary.json").exists()
