@@ -323,7 +323,15 @@ def read_metadata(bag: str | os.PathLike[str]) -> dict[str, Any]:
     p = Path(bag) / "metadata.yaml"
     if not p.is_file():
         raise StnsRosError(f"no metadata.yaml in {str(bag)!r} (was the recording closed?)")
-    return yaml.safe_load(p.read_text())["rosbag2_bagfile_information"]
+    try:
+        info = yaml.safe_load(p.read_text())["rosbag2_bagfile_information"]
+    except (yaml.YAMLError, UnicodeDecodeError, OSError) as e:
+        raise StnsRosError(f"{str(p)!r} is not readable YAML: {e}") from None
+    except (KeyError, TypeError):
+        info = None
+    if not isinstance(info, dict):
+        raise StnsRosError(f"{str(p)!r} holds no rosbag2_bagfile_information mapping")
+    return info
 
 
 def json_custom(value: Any) -> str:

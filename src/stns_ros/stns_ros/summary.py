@@ -72,12 +72,15 @@ def load_run(bag: str | os.PathLike[str]) -> RunData:
                              m_to_u(msg.pose.pose.position.y),
                              quaternion_yaw(q.x, q.y, q.z, q.w)))
         elif m.topic == T.STEPS:
-            run.steps.append(json.loads(deserialize_message(m.data, String).data))
+            run.steps.append(_json_object(bag, m, deserialize_message(m.data, String).data))
+            if not isinstance(run.steps[-1].get("index"), int):
+                raise StnsRosError(f"bag {str(bag)!r}: the {m.topic} message at "
+                                   f"{m.log_time} ns has no integer \"index\"")
         elif m.topic == T.FAULT_EVENTS:
-            run.faults.append(json.loads(deserialize_message(m.data, String).data))
+            run.faults.append(_json_object(bag, m, deserialize_message(m.data, String).data))
         elif m.topic == T.RUN_CONFIG and not run.config:
             text = deserialize_message(m.data, String).data
-            run.config = json.loads(text) if text else {}
+            run.config = _json_object(bag, m, text) if text else {}
         elif m.topic == T.SITUATIONS:
             msg = deserialize_message(m.data, MarkerArray)
             run.situations_final = sum(
@@ -86,6 +89,19 @@ def load_run(bag: str | os.PathLike[str]) -> RunData:
     for i, d in enumerate(run.steps):
         d.setdefault("run_step", i)
     return run
+
+
+def _json_object(bag: str | os.PathLike[str], m: Any, text: str) -> dict[str, Any]:
+    """The JSON object a std_msgs/String message of the run carries; anything else names the
+    bag, the topic and the message's time."""
+    try:
+        value = json.loads(text)
+    except json.JSONDecodeError as e:
+        value = e
+    if not isinstance(value, dict):
+        raise StnsRosError(f"bag {str(bag)!r}: the {m.topic} message at {m.log_time} ns is not "
+                           f"a JSON object ({value}): {text[:60]!r}")
+    return value
 
 
 def _ticks(run: RunData) -> int:

@@ -14,6 +14,9 @@ from stns_ros.bag import (
     recover,
 )
 from stns_ros.errors import StnsRosError
+from stns_ros.summary import load_run
+
+from stns_ros import topics as T
 
 
 def _write(path, n=500, flush_at=None, close=True):
@@ -98,3 +101,34 @@ def test_refuses_to_overwrite_and_unknown_topic(tmp_path):
         BagWriter(tmp_path / "c", compression="gzip")
     with pytest.raises(StnsRosError, match="no bag at"):
         list(read_messages(Path(tmp_path / "none")))
+
+
+@pytest.mark.parametrize("text, message", [
+    ("rosbag2_bagfile_information: [1\n", "is not readable YAML"),
+    ("other: 1\n", "holds no rosbag2_bagfile_information mapping"),
+    ("- 1\n", "holds no rosbag2_bagfile_information mapping"),
+])
+def test_damaged_metadata_is_named(tmp_path, text, message):
+    _write(tmp_path / "b", n=5)
+    (tmp_path / "b" / "metadata.yaml").write_text(text)
+    with pytest.raises(StnsRosError, match="metadata.yaml") as err:
+        read_metadata(tmp_path / "b")
+    assert message in str(err.value)
+    with pytest.raises(StnsRosError, match=message):
+        recover(tmp_path / "b")  # a complete bag's count comes from its metadata
+
+
+@pytest.mark.parametrize("data, message", [
+    ("{not json", "is not a JSON object (Expecting property name"),
+    ("[1, 2]", "is not a JSON object ([1, 2])"),
+    ('{"trial": 1}', 'has no integer "index"'),
+])
+def test_run_summary_names_a_damaged_step_message(tmp_path, data, message):
+    w = BagWriter(tmp_path / "b")
+    w.add_topic(T.STEPS, "std_msgs/String")
+    w.write(T.STEPS, serialize_message(String(data='{"index": 0, "trial": 0}')), 1000)
+    w.write(T.STEPS, serialize_message(String(data=data)), 2000)
+    w.close()
+    with pytest.raises(StnsRosError) as err:
+        load_run(tmp_path / "b")
+    assert f"the {T.STEPS} message at 2000 ns" in str(err.value) and message in str(err.value)
