@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import copy
 import dataclasses
-import json
 import logging
 import math
 import time
@@ -442,7 +441,9 @@ def run_grid(run: Run) -> dict:
         files = sorted(d.glob("set*.json"))
         if not files:
             raise ExperimentError(f"--from {p['from']!r}: no STNS trial-set results in {str(d)!r}")
-        stns_results = [json.loads(f.read_text()) for f in files]
+        stns_results = [read_set(f, f"--from {p['from']!r}: STNS trial-set result") for f in files]
+        if not isinstance(stns_results[0].get("steps"), int):
+            raise ExperimentError(f"--from {p['from']!r}: {str(files[0])!r} has no step count")
         if stns_results[0]["steps"] < p["steps"]:
             raise ExperimentError(
                 f"--from {p['from']!r}: STNS runs have {stns_results[0]['steps']} steps, "

@@ -142,3 +142,15 @@ def test_from_names_a_damaged_pre_training_result(tmp_path, capsys):
     assert "--from: pre-training result of set00.npz" in err
     assert "set00.json' lacks block_behaviours, final_behaviours, final_arrivals" in err
     assert not (tmp_path / "again" / "summary.json").exists()
+
+
+def test_grid_from_an_exp1_run_and_a_damaged_one(tmp_path, capsys):
+    out, s1 = _run(tmp_path, ["exp1", "--steps", "120", "--no-figures"] + SMALL)
+    grid = ["grid", "--steps", "100", "--no-figures", "--from", str(out)] + SMALL
+    assert main(grid + ["--out", str(tmp_path / "g")]) == 0
+    g = json.loads((tmp_path / "g" / "summary.json").read_text())
+    assert g["stns"]["final_behaviours_to_goal"] == s1["final_behaviours_to_goal"]
+    (out / "sets" / "set00.json").write_text('{"key": "set00"}')
+    assert main(grid + ["--out", str(tmp_path / "g2")]) == 2
+    assert "STNS trial-set result: " in capsys.readouterr().err
+    assert not (tmp_path / "g2" / "summary.json").exists()
