@@ -422,6 +422,20 @@ class StnsAgent:
             return None
         return int(cands[0]) if len(cands) == 1 else int(self.rng.choice(cands))
 
+    def _pending_t_try(self, x: np.ndarray) -> tuple[int, int] | None:
+        """Option pending_t_try: from the margin, instead of a plan, a (behaviour,
+        R-situation) pair that has no T-situation yet, where the margin outcome of that
+        behaviour nearest to the input reached that R-situation (one pair at random), else
+        None. It runs as a plan of one step aimed at the R-situation, so each one adds a
+        T-result towards the T-situation's N_init^T or a miss nearer than the success
+        (algorithm.md, "Readings")."""
+        if self.config.pending_t_try == "never":
+            return None
+        pairs = self.learner.pending_t_pairs(x)
+        if not pairs:
+            return None
+        return pairs[0] if len(pairs) == 1 else pairs[int(self.rng.integers(len(pairs)))]
+
     def _begin(self, x: np.ndarray, continuing: bool) -> int:
         s = self.learner.classify(x)
         self._current = s
@@ -457,6 +471,10 @@ class StnsAgent:
             if b_pending is not None:
                 b, d, planned, margin_root = b_pending, None, False, 0
                 self._plan = []
+        if planned and s == 0 and b_pending is None:
+            pair = self._pending_t_try(x)  # only instead of a plan, as pending_r_try's
+            if pair is not None:
+                (b, d), self._plan, margin_root = pair, [], 0
         if s in self._tries:
             self._tries[s][int(b)] += 1
         self._run = _Running(x0=x.copy(), s0=s, b=int(b), target=d, planned=planned,

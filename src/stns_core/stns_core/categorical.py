@@ -85,6 +85,39 @@ class Learner:
         d2 = np.sum(((self.hist.x[members] - x) / scale) ** 2, axis=1)
         return bool(label[members][int(np.argmin(d2))])
 
+    def pending_t_pairs(self, x: np.ndarray) -> list[tuple[int, int]]:
+        """Option pending_t_try: (behaviour, R-situation) pairs that have no T-situation yet,
+        whose stored margin records of that behaviour have reached that R-situation (a
+        T-result), and whose margin outcome nearest to ``x`` was such a result. An outcome is
+        a margin record of the behaviour that did not end at the goal; distances are
+        Euclidean, each input dimension scaled by its standard deviation over the stored
+        records (the T-situation that would scale them does not exist yet). The behaviour of
+        the R-situation itself is left out: it would run on through it."""
+        h = self.hist
+        rs = [s for s in self.order if s.kind == R_KIND]
+        if not rs:
+            return []
+        have = {(s.behaviour, s.parent) for s in self.order if s.kind == T_KIND}
+        margin = h.valid & (h.s == MARGIN) & ~h.terminal
+        std: np.ndarray | None = None
+        out = []
+        for b in range(self.n_behaviours):
+            outcome = margin & (h.b == b)
+            if not outcome.any():
+                continue
+            for r in rs:
+                if b == r.behaviour or (b, r.id) in have:
+                    continue
+                reached = outcome & t_result_mask(h, b, r.id, self._unpunished)
+                if not reached.any():
+                    continue
+                if std is None:
+                    std = h.x[h.valid].std(axis=0)
+                    std[std <= 0.0] = 1.0
+                if self._nearest_is(outcome, reached, x, std):
+                    out.append((b, r.id))
+        return out
+
     def pending_r_behaviours(self, x: np.ndarray) -> list[int]:
         """Option pending_r_try: behaviours that have reached a goal reward
         (> ``r_min_r``) in the stored history but have no R-situation yet, and whose outcome

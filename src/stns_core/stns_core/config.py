@@ -33,6 +33,7 @@ MARGIN_STNS = ("all", "no_positives")
 MISS_STOPS = ("never", "margin", "all")
 EXPLORE_UNTRIED_STOPS = ("random_stop", "reward")
 PENDING_R_TRIES = ("never", "nearest_success", "planned_nearest_success")
+PENDING_T_TRIES = ("never", "planned_nearest_success")
 
 _PRESETS: dict[str, dict[str, Any]] = {
     # Paper section 7.1 (Exp. 1 and, from a saved learner, Exp. 2).
@@ -85,6 +86,7 @@ class StnsConfig:
     explore_untried: int = 0
     explore_untried_stop: str = "random_stop"
     pending_r_try: str = "never"
+    pending_t_try: str = "never"
     useless: str = "negative"
     relabel: str = "after_modification"
     iprl_memo: bool = True
@@ -171,6 +173,7 @@ class StnsConfig:
             "margin_plan": MARGIN_PLANS, "useless": USELESS, "r_break_forget": R_BREAK_FORGETS,
             "margin_stn": MARGIN_STNS, "miss_stop": MISS_STOPS,
             "explore_untried_stop": EXPLORE_UNTRIED_STOPS, "pending_r_try": PENDING_R_TRIES,
+            "pending_t_try": PENDING_T_TRIES,
         }
         for name, allowed in choices.items():
             value = getattr(self, name)

@@ -475,3 +475,53 @@ def test_pending_r_try_planned_reading_leaves_exploration_as_it_was(mode, tried)
     assert lr.pending_r_behaviours(GOAL_AT + 1.0) == [1]
     agent.step(GOAL_AT + 1.0, 0.0, False)
     assert agent._run.pending is tried and not agent._run.planned
+
+
+TURN_AT = np.array([10.0, -10.0])
+
+
+def agent_with_pending_turn(**overrides):
+    """An R-situation of behaviour 0; from the margin, turn 2 reached it twice at TURN_AT and
+    missed with a penalty at MISS_AT; turn 3 reached it three times far off and missed beside
+    TURN_AT. No T-situation: each pair has fewer than N_init^T + 1 = 6 records."""
+    agent, rid = agent_with_r_situation(**overrides)
+    lr = agent.learner
+    recs = [(TURN_AT, 2, 0.0, rid), (TURN_AT + [0.0, 1.0], 2, 0.0, rid), (MISS_AT, 2, -1.0, 0),
+            (TURN_AT + [1.0, 0.0], 3, -1.0, 0)]
+    recs += [(np.array([0.0, 20.0 + k]), 3, 0.0, rid) for k in range(3)]
+    for p, b, reward, s_next in recs:
+        lr.add_record(p, 0, b, reward, R_PTS[0], s_next, False)
+    assert [s.kind for s in lr.order] == ["R"]
+    return agent, rid
+
+
+def test_pending_t_try_turns_where_the_nearest_margin_outcome_reached_the_r_situation():
+    """pending_t_try="planned_nearest_success": from the margin, instead of the margin's plan
+    (turn 3, the likelier one), the turn whose nearest margin outcome reached the R-situation
+    is taken as a planned step aimed at it; not where that outcome was a miss, not the R's
+    own behaviour, and never with the option off."""
+    near_turn = TURN_AT + [0.5, 0.0]
+    off, rid = agent_with_pending_turn()
+    assert off.learner.plan(0)[1][0] == (3, rid)
+    assert off.step(near_turn, 0.0, False) == 3
+    agent, rid = agent_with_pending_turn(pending_t_try="planned_nearest_success")
+    assert agent.learner.pending_t_pairs(near_turn) == [(2, rid)]
+    assert (2, rid) not in agent.learner.pending_t_pairs(MISS_AT + 0.5)
+    assert agent.step(near_turn, 0.0, False) == 2
+    assert agent._run.planned and agent._run.target == rid and agent._plan == []
+    agent.step(R_PTS[1], 0.0, False)  # in the R-situation: the step met its target
+    rec = agent.pop_records()[0]
+    assert (rec.behaviour, rec.target, rec.planned, rec.success) == (2, rid, True, True)
+    with pytest.raises(StnsError, match="pending_t_try must be one of"):
+        StnsConfig(pending_t_try="yes")
+
+
+def test_pending_t_try_ends_with_the_t_situation():
+    """Once the pair has its T-situation (N_init^T + 1 records of turn 2 from the margin into
+    the R-situation), it is no longer pending where it was."""
+    agent, rid = agent_with_pending_turn(pending_t_try="planned_nearest_success")
+    lr = agent.learner
+    for k in range(4):
+        lr.add_record(TURN_AT + [0.0, 2.0 + k], 0, 2, 0.0, R_PTS[0], rid, False)
+    assert [(s.kind, s.behaviour, s.parent) for s in lr.order if s.kind == "T"] == [("T", 2, rid)]
+    assert (2, rid) not in lr.pending_t_pairs(TURN_AT + [0.5, 0.0])
