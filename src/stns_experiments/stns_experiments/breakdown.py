@@ -24,6 +24,7 @@ from pathlib import Path
 import numpy as np
 
 from stns_experiments.config import ExperimentError
+from stns_experiments.report import print_or_fail
 from stns_experiments.structure import positive_int, read_tables, run_params
 
 KINDS = (("0", "margin"), ("R", "R"), ("T", "T"))
@@ -146,13 +147,12 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--mode", choices=MODES, default="relearn",
                     help="Exp. 2: the relearning or the from-scratch learners")
     args = ap.parse_args(argv)
-    try:
+
+    def text() -> str:
         spans = [parse_span(s) for s in args.span] if args.span else None
-        sys.stdout.write(describe(args.runs, spans, args.level, args.mode))
-    except ExperimentError as e:
-        sys.stderr.write(f"error: {e}\n")
-        return 2
-    return 0
+        return describe(args.runs, spans, args.level, args.mode)
+
+    return print_or_fail(text)
 
 
 if __name__ == "__main__":

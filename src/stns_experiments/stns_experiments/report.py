@@ -11,6 +11,7 @@ from __future__ import annotations
 import argparse
 import json
 import sys
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -25,6 +26,18 @@ def read_json(path: Path, what: str) -> Any:
         raise ExperimentError(f"{what}: {str(path)!r} does not exist") from None
     except (OSError, UnicodeDecodeError, json.JSONDecodeError) as e:
         raise ExperimentError(f"{what}: {str(path)!r} is not readable JSON: {e}") from None
+
+
+def print_or_fail(make_text: Callable[[], str]) -> int:
+    """The exit code of a command that prints ``make_text()``: 0, or 2 with an
+    ExperimentError written as one "error:" line and nothing printed."""
+    try:
+        text = make_text()
+    except ExperimentError as e:
+        sys.stderr.write(f"error: {e}\n")
+        return 2
+    sys.stdout.write(text)
+    return 0
 
 
 def read_summary(folder: Path) -> dict[str, Any]:
@@ -202,13 +215,7 @@ def main(argv: list[str] | None = None) -> int:
                                  description=__doc__.split("\n\n")[0])
     ap.add_argument("runs", nargs="+", type=Path, help="run folders (with summary.json)")
     args = ap.parse_args(argv)
-    try:
-        text = "".join(describe(f) + "\n" for f in args.runs)
-    except ExperimentError as e:
-        sys.stderr.write(f"error: {e}\n")
-        return 2
-    sys.stdout.write(text)
-    return 0
+    return print_or_fail(lambda: "".join(describe(f) + "\n" for f in args.runs))
 
 
 if __name__ == "__main__":

@@ -30,7 +30,7 @@ import numpy as np
 from stns_experiments import metrics as M
 from stns_experiments import records as R
 from stns_experiments.config import ExperimentError
-from stns_experiments.report import read_json
+from stns_experiments.report import print_or_fail, read_json
 
 GOAL_TARGET = -1  # records.to_table writes a goal target (None) as -1
 ANALYSABLE = ("exp1", "exp3")
@@ -238,12 +238,7 @@ def main(argv: list[str] | None = None) -> int:
         ap.error(f"--by must be >= 0 and --span >= 1, got {args.by} and {args.span}")
     if not 0.0 < args.min_share < 1.0:
         ap.error(f"--min-share must lie in (0, 1), got {args.min_share}")
-    try:
-        sys.stdout.write(describe(args.runs, args.by, args.span, args.min_share))
-    except ExperimentError as e:
-        sys.stderr.write(f"error: {e}\n")
-        return 2
-    return 0
+    return print_or_fail(lambda: describe(args.runs, args.by, args.span, args.min_share))
 
 
 if __name__ == "__main__":
