@@ -72,6 +72,7 @@ class Run:
         self.params, self.out, self.jobs = params, Path(out), max(1, int(jobs))
         self.command, self.progress = command, progress
         self.t0 = time.monotonic()
+        self.started = math.floor(time.time())  # result files written since are this run's
         self.errors: dict[str, str] = {}
         self.interrupted = False
         self.out.mkdir(parents=True, exist_ok=True)
@@ -90,12 +91,29 @@ class Run:
             if done:
                 log.info("resume: %d finished task(s) loaded, %d to run", len(done), len(tasks))
         res, err, intr = run_tasks(dispatch, tasks, self.jobs, label, self.progress)
+        if intr:
+            res.update(self._finished_during_stop(tasks, res, err))
         res = {**done, **res}
         self.errors.update(err)
         self.interrupted = self.interrupted or intr
         for k, e in err.items():
             log.error("task %s failed: %s", k, e)
         return res
+
+    def _finished_during_stop(self, tasks: list[dict], res: dict, err: dict) -> dict[str, dict]:
+        """Results of tasks that finished while a stop came: a worker writes its result file
+        last (atomically), and the stop can fall before the parent has heard of it; such a
+        set is kept as --resume would keep it. Only files written since this run began."""
+        found: dict[str, dict] = {}
+        for t in tasks:
+            f = Path(t["out"]) / "sets" / f"{t['key']}.json"
+            if t["key"] in res or t["key"] in err or not f.is_file():
+                continue
+            if f.stat().st_mtime >= self.started:
+                found[t["key"]] = _finished(t, f)
+        if found:
+            log.info("stop: %d trial set(s) finished as the stop came, kept", len(found))
+        return found
 
     def task(self, fn: str, key: str, index: int, steps: int, seeds: dict, params=None,
              out: Path | None = None, **extra: Any) -> dict:

@@ -33,3 +33,20 @@ def test_sigterm_keeps_finished_trial_sets(tmp_path, jobs):
     assert summary["interrupted"] is True
     assert 1 <= summary["trial_sets_finished"] < 6
     assert len(list((out / "records").glob("set*.csv.gz"))) >= summary["trial_sets_finished"]
+
+
+def test_a_set_finished_as_the_stop_came_is_kept_but_not_an_older_file(tmp_path):
+    """A worker writes its result file last; a stop can fall before the parent hears of it.
+    Such a file, written since the run began, is that set's result and is kept; a file left
+    from an earlier run in the same folder is not taken for this run's."""
+    from stns_experiments.run import Run
+
+    run = Run({"experiment": "exp1"}, tmp_path, jobs=1, command="test", progress=False)
+    (tmp_path / "sets").mkdir()
+    tasks = [{"fn": "random", "key": k, "out": str(tmp_path)} for k in ("a", "b", "c", "d")]
+    for k in ("b", "c", "d"):
+        (tmp_path / "sets" / f"{k}.json").write_text(json.dumps({"key": k, "steps": 7}))
+    old = run.started - 3600
+    os.utime(tmp_path / "sets" / "c.json", (old, old))
+    found = run._finished_during_stop(tasks, res={"d": {"key": "d"}}, err={})
+    assert found == {"b": {"key": "b", "steps": 7}}
