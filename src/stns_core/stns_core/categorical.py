@@ -112,8 +112,7 @@ class Learner:
                 if not reached.any():
                     continue
                 if std is None:
-                    std = h.x[h.valid].std(axis=0)
-                    std[std <= 0.0] = 1.0
+                    std = self._history_std()
                 if self._nearest_is(outcome, reached, x, std):
                     out.append((b, r.id))
         return out
@@ -133,9 +132,15 @@ class Learner:
         pending = [b for b in np.unique(h.b[goal]).tolist() if b not in with_r]
         if not pending:
             return []
-        std = h.x[h.valid].std(axis=0)
-        std[std <= 0.0] = 1.0
+        std = self._history_std()
         return [int(b) for b in pending if self._nearest_is(outcome & (h.b == b), goal, x, std)]
+
+    def _history_std(self) -> np.ndarray:
+        """Per-dimension standard deviation of the stored inputs (1 where it is 0): the
+        scale of the pending tries' nearest-outcome tests, before any situation's shape."""
+        std = self.hist.x[self.hist.valid].std(axis=0)
+        std[std <= 0.0] = 1.0
+        return std
 
     def classify_batch(self, xs: np.ndarray) -> np.ndarray:
         return self.classifier.classify_batch(xs, self.hist.x)

@@ -63,6 +63,17 @@ def _finished(task: dict, path: Path) -> dict:
     return r
 
 
+def _results_on_disk(tasks: list[dict], since: float | None = None) -> dict[str, dict]:
+    """The result files (sets/<key>.json) of ``tasks`` already written, by key, each checked
+    to be that task's result; with ``since``, only files written at or after that time."""
+    found: dict[str, dict] = {}
+    for t in tasks:
+        f = Path(t["out"]) / "sets" / f"{t['key']}.json"
+        if f.is_file() and (since is None or f.stat().st_mtime >= since):
+            found[t["key"]] = _finished(t, f)
+    return found
+
+
 class Run:
     """One invocation: parameters, output folder, timing, task errors."""
 
@@ -83,10 +94,7 @@ class Run:
             return {}
         done: dict[str, dict] = {}
         if self.resume:
-            for t in tasks:
-                f = Path(t["out"]) / "sets" / f"{t['key']}.json"
-                if f.is_file():
-                    done[t["key"]] = _finished(t, f)
+            done = _results_on_disk(tasks)
             tasks = [t for t in tasks if t["key"] not in done]
             if done:
                 log.info("resume: %d finished task(s) loaded, %d to run", len(done), len(tasks))
@@ -104,13 +112,8 @@ class Run:
         """Results of tasks that finished while a stop came: a worker writes its result file
         last (atomically), and the stop can fall before the parent has heard of it; such a
         set is kept as --resume would keep it. Only files written since this run began."""
-        found: dict[str, dict] = {}
-        for t in tasks:
-            f = Path(t["out"]) / "sets" / f"{t['key']}.json"
-            if t["key"] in res or t["key"] in err or not f.is_file():
-                continue
-            if f.stat().st_mtime >= self.started:
-                found[t["key"]] = _finished(t, f)
+        found = _results_on_disk([t for t in tasks if t["key"] not in res and t["key"] not in err],
+                                 since=self.started)
         if found:
             log.info("stop: %d trial set(s) finished as the stop came, kept", len(found))
         return found

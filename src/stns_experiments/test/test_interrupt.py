@@ -50,3 +50,6 @@ def test_a_set_finished_as_the_stop_came_is_kept_but_not_an_older_file(tmp_path)
     os.utime(tmp_path / "sets" / "c.json", (old, old))
     found = run._finished_during_stop(tasks, res={"d": {"key": "d"}}, err={})
     assert found == {"b": {"key": "b", "steps": 7}}
+    from stns_experiments.run import _results_on_disk
+
+    assert set(_results_on_disk(tasks)) == {"b", "c", "d"}  # --resume takes every file
