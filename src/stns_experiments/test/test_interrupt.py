@@ -39,7 +39,7 @@ def test_a_set_finished_as_the_stop_came_is_kept_but_not_an_older_file(tmp_path)
     """A worker writes its result file last; a stop can fall before the parent hears of it.
     Such a file, written since the run began, is that set's result and is kept; a file left
     from an earlier run in the same folder is not taken for this run's."""
-    from stns_experiments.run import Run
+    from stns_experiments.run import Run, _results_on_disk  # after the importorskips
 
     run = Run({"experiment": "exp1"}, tmp_path, jobs=1, command="test", progress=False)
     (tmp_path / "sets").mkdir()
@@ -50,6 +50,4 @@ def test_a_set_finished_as_the_stop_came_is_kept_but_not_an_older_file(tmp_path)
     os.utime(tmp_path / "sets" / "c.json", (old, old))
     found = run._finished_during_stop(tasks, res={"d": {"key": "d"}}, err={})
     assert found == {"b": {"key": "b", "steps": 7}}
-    from stns_experiments.run import _results_on_disk
-
     assert set(_results_on_disk(tasks)) == {"b", "c", "d"}  # --resume takes every file
