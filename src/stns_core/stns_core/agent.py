@@ -458,6 +458,9 @@ class StnsAgent:
         else:
             root = self._plan_root(x, s)
             u, plan = self.learner.plan(root)
+            if not (u > 0.0 and plan) and root != 0 and self.config.no_plan == "margin_plan":
+                root = 0  # no plan of positive utility here: the margin's plan, if it has one
+                u, plan = self.learner.plan(root)
             self._plan_utility = u
             if u > 0.0 and plan:
                 (b, d), self._plan = plan[0], plan[1:]

@@ -28,6 +28,7 @@ PLAN_STOPS = ("target", "higher_utility")
 T_RESULTS = ("reached", "unpunished")
 MARGIN_PLANS = ("margin", "nearest_r", "nearest_r_bitten")
 R_BREAK_FORGETS = ("positives", "history")
+NO_PLANS = ("explore", "margin_plan")
 USELESS = ("negative", "no_positive_plan")
 MARGIN_STNS = ("all", "no_positives")
 MISS_STOPS = ("never", "margin", "all")
@@ -88,6 +89,7 @@ class StnsConfig:
     pending_r_try: str = "never"
     pending_t_try: str = "never"
     useless: str = "negative"
+    no_plan: str = "explore"
     relabel: str = "after_modification"
     iprl_memo: bool = True
     cov_reg: float = 1e-3
@@ -171,7 +173,7 @@ class StnsConfig:
             "exploration": EXPLORATIONS, "shape_scope": SHAPE_SCOPES,
             "target_stop": TARGET_STOPS, "plan_stop": PLAN_STOPS, "t_result": T_RESULTS,
             "margin_plan": MARGIN_PLANS, "useless": USELESS, "r_break_forget": R_BREAK_FORGETS,
-            "margin_stn": MARGIN_STNS, "miss_stop": MISS_STOPS,
+            "margin_stn": MARGIN_STNS, "miss_stop": MISS_STOPS, "no_plan": NO_PLANS,
             "explore_untried_stop": EXPLORE_UNTRIED_STOPS, "pending_r_try": PENDING_R_TRIES,
             "pending_t_try": PENDING_T_TRIES,
         }

@@ -61,6 +61,7 @@ def test_round_trip_and_replace():
     ("nn_window", -5, "nn_window must be >= 0"),
     ("nn_window", "200", "nn_window must be an int"),
     ("useless", "zero", "useless must be one of"),
+    ("no_plan", "greedy", "no_plan must be one of"),
     ("r_break_forget", "all", "r_break_forget must be one of"),
     ("r_break_fraction", 1.0, "r_break_fraction must be in \\[0, 1\\), got 1.0"),
     ("margin_stn", "window", "margin_stn must be one of"),
