@@ -123,13 +123,14 @@ def test_exp1_improved_yaml_is_exp1_plus_the_seven_readings():
 
 def test_exp3_improved_yaml_is_exp3_plus_the_best_measured_options():
     """config/exp3-improved.yaml: the best learner of the Exp. 3 runs in docs/RESULTS.md (the
-    earlier runs gave its options with --set, and p_min 0.2), on the paper's Exp. 3 file."""
+    runs gave its options with --set), on the paper's Exp. 3 file, with §7.3's p_min."""
     p = resolve("exp3", WS_CONFIG / "exp3-improved.yaml")
     base = resolve("exp3", WS_CONFIG / "exp3.yaml")
     assert p["agent"]["overrides"] == {
         "exploration": "greedy_goal", "greedy_prob": 1.0, "greedy_align_deg": 5.0,
         "t_result": "unpunished", "plan_stop": "higher_utility", "target_stop": "deepest",
-        "target_lookahead_ticks": 1, "useless": "no_positive_plan", "p_min": 0.1}
+        "target_lookahead_ticks": 1, "useless": "no_positive_plan", "no_plan": "margin_plan",
+        "p_min": 0.2}
     assert p["agent"]["preset"] == "exp3" and p["trial_sets"] == 4
     assert {k: v for k, v in p.items() if k not in ("agent", "config_source", "trial_sets")} == {
         k: v for k, v in base.items() if k not in ("agent", "config_source", "trial_sets")}
