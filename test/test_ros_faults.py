@@ -9,15 +9,15 @@ import pytest
 from stns_ros.summary import load_run
 
 
-def _implied_goals(run, rotation_deg):
-    """Per frame: the goal position in the room that the goal reading implies, if the
-    sensor were rotated by `rotation_deg` (u). Constant within a trial iff the guess is right."""
+def _implied_goals(run, rotation_deg, stamps):
+    """Per frame of `stamps`: the goal position in the room that the goal reading implies, if
+    the sensor were rotated by `rotation_deg` (u). Constant within a trial iff the guess is
+    right."""
     poses = {t: (x, y, yaw) for t, x, y, yaw in run.odom}
     out = {}
     c, s = math.cos(math.radians(-rotation_deg)), math.sin(math.radians(-rotation_deg))
-    for t, f in run.frames.items():
-        if "goal" not in f or "reward" not in f:
-            continue  # the last frame may be cut off by the shutdown (see the test)
+    for t in stamps:
+        f = run.frames[t]
         gx, gy = (v / 0.0625 for v in f["goal"])
         rx, ry = c * gx - s * gy, s * gx + c * gy  # undo the sensor rotation
         x, y, yaw = poses[t]
@@ -51,7 +51,7 @@ def test_rotation_fault_is_applied_seen_and_recorded(fault_run):
     frames = [t for t in frames if t not in incomplete]
     before = [t for t in frames if t <= t_trigger]
     after = [t for t in frames if t > t_event]
-    healthy, rotated = _implied_goals(run, 0.0), _implied_goals(run, 90.0)
+    healthy, rotated = _implied_goals(run, 0.0, frames), _implied_goals(run, 90.0, frames)
     ok, n = _consistent(healthy, before)
     assert ok and n > 100  # before: the reading points at a fixed goal
     ok, n = _consistent(rotated, after)

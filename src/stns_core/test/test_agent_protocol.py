@@ -283,14 +283,19 @@ def test_margin_plan_reading(margin_plan, reach, planned):
         assert (b, agent._run.target) == (0, -1)  # R's plan: its behaviour, to the goal
 
 
+def _without_own_plan(agent, rid, monkeypatch):
+    """Situation ``rid``'s own plan is empty (utility 0); every other plan is the real one."""
+    real_plan = agent.learner.plan
+    monkeypatch.setattr(agent.learner, "plan",
+                        lambda sid: (0.0, []) if sid == rid else real_plan(sid))
+
+
 @pytest.mark.parametrize("no_plan,planned", [("explore", False), ("margin_plan", True)])
 def test_no_plan_reading(no_plan, planned, monkeypatch):
     """Inside a situation whose own plan has no positive utility the paper explores;
     no_plan="margin_plan" follows the margin's plan there ([(2, R), (0, goal)] here)."""
     agent, rid = trained_agent(no_plan=no_plan)
-    lr = agent.learner
-    real_plan = lr.plan
-    monkeypatch.setattr(lr, "plan", lambda sid: (0.0, []) if sid == rid else real_plan(sid))
+    _without_own_plan(agent, rid, monkeypatch)
     inside = np.array([0.5, 0.0])
     assert agent.classify(inside) == rid
     b = agent.step(inside, 0.0, False)
@@ -302,10 +307,8 @@ def test_no_plan_reading(no_plan, planned, monkeypatch):
 
 def test_no_plan_margin_plan_explores_when_the_margin_has_no_plan_either(monkeypatch):
     agent, rid = agent_with_r_situation(no_plan="margin_plan")  # no margin records yet
-    lr = agent.learner
-    assert lr.plan(0)[0] <= 0.0
-    real_plan = lr.plan
-    monkeypatch.setattr(lr, "plan", lambda sid: (0.0, []) if sid == rid else real_plan(sid))
+    assert agent.learner.plan(0)[0] <= 0.0
+    _without_own_plan(agent, rid, monkeypatch)
     agent.step(np.array([0.5, 0.0]), 0.0, False)
     assert agent._run.planned is False and agent._run.s0 == rid
 
