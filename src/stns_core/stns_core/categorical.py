@@ -52,6 +52,7 @@ class Learner:
         self._planner: Iprl | Pia | None = None
         self._planner_version = -1
         self._recent: np.ndarray | None = None  # option nn_window: slots of the newest records
+        self._change_at = 0  # option contradiction_window: records before it may be stale
         self.refresh_nn_window()
 
     # -- classification ---------------------------------------------------------------
@@ -278,6 +279,8 @@ class Learner:
                     own, b, reward, s_next, terminal):
                 own.neg[slot] = True
                 own.nn_dirty = True
+        if cfg.contradiction_radius > 0.0 and b >= 0:
+            self._forget_contradicted(slot)
         self._version += 1
         self._extract()
         self._validity()
@@ -536,7 +539,12 @@ class Learner:
         Returns the age of the oldest of those W records (``first_miss``: of the oldest miss
         among them), else None. (Older records re-labelled into a new R-situation do not
         count, or the failures that broke one would break its successor at once.)"""
-        w = self.cfg.r_break_window
+        return self._missing(sit, self.cfg.r_break_window, self.cfg.r_break_fraction,
+                             first_miss)
+
+    def _missing(self, sit: Situation, w: int, fraction: float,
+                 first_miss: bool) -> int | None:
+        """``_broken``'s test for any window ``w`` (0: never) and ``fraction``."""
         if w == 0:
             return None
         h = self.hist
@@ -548,7 +556,7 @@ class Learner:
         ages = ages[idx]
         last = np.argsort(ages, kind="stable")[:w]
         met = sit.pos[idx[last]]
-        if int(np.count_nonzero(~met)) <= self.cfg.r_break_fraction * w:
+        if int(np.count_nonzero(~met)) <= fraction * w:
             return None
         return int(ages[last][~met].max() if first_miss else ages[last].max())
 
@@ -577,6 +585,55 @@ class Learner:
             other.nn_dirty = True
         self._event("forgotten", sit, records=n)
         self._structure_changed()
+
+    def _forget_contradicted(self, slot: int) -> None:
+        """Option ``contradiction_radius`` r (not the paper's): the stored records of the
+        same behaviour started within r of the record just stored in ``slot`` (Euclidean,
+        each input dimension scaled by its standard deviation over the stored records) whose
+        outcome differs from its outcome leave the history. An outcome is the goal reward
+        (> ``r_min_r``), or else the situation the step ended in. After a fault the newest
+        outcome replaces the stale ones around it at once instead of after the history's
+        length.
+
+        With ``contradiction_window`` W > 0 only records made before the newest change
+        point can leave: a change point is the oldest miss among an R-situation's last W
+        uses since its extraction when more than half of them missed (``_broken``'s test
+        at half). In a world that has not changed, outcomes that differ around one input
+        (the rover's position beyond its goal sensor) would otherwise replace each other
+        for ever (docs/RESULTS.md: a worse level after the fault and from scratch)."""
+        h = self.hist
+        cfg = self.cfg
+        eligible = h.valid
+        if cfg.contradiction_window:
+            for sit in self.order:
+                if sit.kind == R_KIND:
+                    age = self._missing(sit, cfg.contradiction_window, 0.5, first_miss=True)
+                    if age is not None:
+                        self._change_at = max(self._change_at, h.total - 1 - age)
+            eligible = eligible & (h.total - 1 - self._ages() < self._change_at)
+            if not eligible.any():
+                return
+        goal = h.reward > cfg.r_min_r
+        outcome = np.where(goal, -1, h.s_next)
+        scale = self._history_std()
+        d2 = np.sum(((h.x - h.x[slot]) / scale) ** 2, axis=1)
+        old = (eligible & (h.b == h.b[slot]) & (d2 <= cfg.contradiction_radius ** 2)
+               & (outcome != outcome[slot]))
+        old[slot] = False
+        n = int(np.count_nonzero(old))
+        if n == 0:
+            return
+        h.valid[old] = False
+        for sit in self.order:
+            if (sit.pos & old).any():
+                sit.shape_dirty = True
+            if ((sit.pos | sit.neg) & old).any():
+                sit.nn_dirty = True
+            sit.pos &= ~old
+            sit.neg &= ~old
+        if self._recent is not None:
+            self._recent &= ~old
+        self._event("contradicted", self.by_id.get(int(h.s[slot])), records=n)
 
     def _eliminate(self, sit: Situation, reason: str) -> None:
         self.order.remove(sit)

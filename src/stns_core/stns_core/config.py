@@ -81,6 +81,8 @@ class StnsConfig:
     r_break_window: int = 0
     r_break_forget: str = "positives"
     r_break_fraction: float = 0.5
+    contradiction_radius: float = 0.0
+    contradiction_window: int = 0
     nn_window: int = 0
     margin_stn: str = "all"
     miss_stop: str = "never"
@@ -115,6 +117,7 @@ class StnsConfig:
             "target_lookahead_ticks": 0, "max_behaviour_ticks": 0, "event_log_size": 1,
             "elimination_grace_steps": 0, "explore_max_ticks": 0, "r_break_window": 0,
             "margin_plan_window": 0, "nn_window": 0, "explore_untried": 0,
+            "contradiction_window": 0,
         }
         for name, lowest in ints.items():
             value = getattr(self, name)
@@ -126,7 +129,7 @@ class StnsConfig:
                 raise StnsConfigError(f"{name} must be >= {lowest}, got {value!r}")
         for name in ("r_min_r", "gamma", "p_min", "cov_reg", "greedy_prob", "greedy_align_deg",
                      "shape_trim", "boundary_quantile", "range_clip", "margin_plan_reach",
-                     "r_break_fraction"):
+                     "r_break_fraction", "contradiction_radius"):
             value = getattr(self, name)
             if isinstance(value, bool | np.bool_) or not isinstance(value, numbers.Real):
                 raise StnsConfigError(f"{name} must be a number, got {value!r}")
@@ -155,6 +158,9 @@ class StnsConfig:
         if not 0.0 <= self.r_break_fraction < 1.0:
             raise StnsConfigError(
                 f"r_break_fraction must be in [0, 1), got {self.r_break_fraction!r}")
+        if self.contradiction_radius < 0.0:
+            raise StnsConfigError(
+                f"contradiction_radius must be >= 0 (0 = off), got {self.contradiction_radius!r}")
         if self.range_clip < 0.0:
             raise StnsConfigError(f"range_clip must be >= 0 (0 = off), got {self.range_clip!r}")
         if self.n_min_r > self.history_size or self.n_init_t > self.history_size:

@@ -72,6 +72,8 @@ def save_agent(agent: StnsAgent, path: str | PathLike) -> None:
         meta["margin_uses"] = {str(k): v for k, v in agent._margin_uses.items()}
     if agent._tries:  # only when used (option explore_untried)
         meta["tries"] = {str(k): v for k, v in agent._tries.items()}
+    if learner._change_at:  # only when used (option contradiction_window)
+        meta["change_at"] = learner._change_at
     arrays["meta"] = np.array(json.dumps(meta))
     directory = os.path.dirname(os.path.abspath(path))
     fd, tmp = tempfile.mkstemp(prefix=".stns-", suffix=".tmp", dir=directory)
@@ -144,6 +146,10 @@ def _restore(cls, arrays: dict[str, np.ndarray]) -> StnsAgent:
         learner.order.append(sit)
         learner.by_id[sit.id] = sit
     learner.events = deque(meta["events"], maxlen=config.event_log_size)
+    learner._change_at = int(meta.get("change_at", 0))
+    if not 0 <= learner._change_at <= hist.total:
+        raise StnsStateError(f"change_at {learner._change_at} outside the history's "
+                             f"0..{hist.total} records")
     learner.event_count = int(meta["event_count"])
     learner.structure_version += 1
     learner.classifier.invalidate()

@@ -456,3 +456,60 @@ def test_margin_stn_no_positives_leaves_bitten_out_successes_out_of_the_margin_n
     assert kept.counts[0, 0].sum() == 1 and kept.p[0, 0, kept.goal] == 0.0
     # the margin's other records count either way
     assert every.counts[0, 1].sum() == kept.counts[0, 1].sum() == 2
+
+
+@pytest.mark.parametrize("radius", [0.0, 0.5])
+def test_contradiction_radius_replaces_the_outcomes_around_a_new_one(radius):
+    lr = make_learner(n_init_r=3, contradiction_radius=radius)
+    for k in range(4):  # four goal arrivals of behaviour 0 around the origin: an R-situation
+        add_goal_record(lr, k)
+    add_goal_record(lr, 4, b=1)  # another behaviour's arrival at the same place
+    far = np.array([30.0, 0.0])
+    lr.add_record(far, lr.classify(far), 0, 10.0, far, lr.classify(far), True)
+    sit = lr.order[0]
+    before = sit.n_pos
+    # behaviour 0 from the first arrival's start now ends in the margin without the goal
+    x = GOAL_PTS[0] + 0.01
+    lr.add_record(x, lr.classify(x), 0, 0.0, far + 5.0, MARGIN, False)
+    h = lr.hist
+    gone = h.valid[:6] == False  # noqa: E712
+    if radius == 0.0:
+        assert not gone.any() and sit.n_pos == before
+        return
+    std = h.x[:7].std(axis=0)  # the scale over the stored records, the new one included
+    near = np.sum(((GOAL_PTS[:4] - x) / std) ** 2, axis=1) <= radius ** 2
+    assert near.any() and not near.all()  # the test separates near from far
+    assert list(gone[:4]) == list(near)  # behaviour 0's arrivals within the radius left
+    assert not gone[4] and not gone[5]  # another behaviour's, and a far one, stay
+    assert sit.n_pos == before - int(near.sum())
+    assert lr.events[-1]["event"] == "contradicted"
+    assert lr.events[-1]["records"] == int(near.sum())
+
+
+def test_contradiction_radius_keeps_outcomes_that_agree():
+    lr = make_learner(n_init_r=3, contradiction_radius=5.0)
+    for k in range(8):
+        add_goal_record(lr, k)
+    assert int(lr.hist.valid.sum()) == 8  # every arrival agrees with the others
+
+
+@pytest.mark.parametrize("window", [0, 4])
+def test_contradiction_window_waits_for_a_change_point(window):
+    lr = make_learner(n_init_r=3, contradiction_radius=5.0, contradiction_window=window)
+    for k in range(4):  # slots 0-3: the arrivals that extract the R-situation
+        add_goal_record(lr, k)
+    add_goal_record(lr, 4)  # slot 4: its first use, a success
+    far = np.array([30.0, 0.0])
+    valid = []
+    for k in range(3):  # slots 5-7: three uses that miss, ending in the margin
+        x = GOAL_PTS[k]
+        lr.add_record(x, lr.classify(x), 0, 0.0, far, MARGIN, False)
+        valid.append(lr.hist.valid[:8].tolist())
+    before = [False] * 5 + [True] * 3  # the five arrivals gone, the misses kept
+    if window == 0:  # every miss contradicts the arrivals around it at once
+        assert valid[0][:6] == [False] * 5 + [True]
+    else:  # the last 4 uses hold more than half misses only at slot 7; the change point
+        # is the oldest of those misses (slot 5), and only what came before it can leave
+        assert valid[0][:6] == [True] * 6 and valid[1][:7] == [True] * 7
+        assert lr._change_at == 5
+    assert valid[2] == before

@@ -27,13 +27,16 @@ def drive(agent, world, state, ticks, until_steps=None):
     return actions, (obs, reward, terminated)
 
 
-@pytest.mark.parametrize("planner,extra", [("iprl", {}), ("pia", {}),
-                                           ("iprl", {"nn_window": 100})])
+@pytest.mark.parametrize("planner,extra", [
+    ("iprl", {}), ("pia", {}), ("iprl", {"nn_window": 100}),
+    ("iprl", {"contradiction_radius": 0.3, "contradiction_window": 10})])
 def test_loaded_agent_continues_with_identical_decisions(tmp_path, planner, extra):
     agent = StnsAgent(StnsConfig.preset("exp1", seed=11, planner=planner, **extra), 2, 4)
     world = KinematicRover(seed=11)
     _, state = drive(agent, world, (world.reset(), 0.0, False), 0, until_steps=700)
     assert agent.learner.order, "expected situations after 12000 ticks"
+    if extra.get("contradiction_window"):  # a change point saved and restored
+        agent.learner._change_at = agent.learner.hist.total - 50
     path = tmp_path / "learner.npz"
     agent.save(path)
     clone = StnsAgent.load(path)
@@ -44,6 +47,7 @@ def test_loaded_agent_continues_with_identical_decisions(tmp_path, planner, extr
     assert a1 == a2
     assert [r.to_dict() for r in agent.pop_records()] == [r.to_dict() for r in clone.pop_records()]
     assert clone.config == agent.config and clone.behaviour_steps == agent.behaviour_steps
+    assert clone.learner._change_at == agent.learner._change_at
 
 
 def test_corrupt_or_incompatible_files_are_refused(tmp_path):
@@ -95,6 +99,12 @@ def test_corrupt_or_incompatible_files_are_refused(tmp_path):
 
     with pytest.raises(StnsStateError, match="wrong_dim.npz: history shape"):
         StnsAgent.load(rewrite("wrong_dim.npz", wrong_dim))
+
+    def future_change(meta, arrays):
+        meta["change_at"] = 10**6
+
+    with pytest.raises(StnsStateError, match="change_at 1000000 outside"):
+        StnsAgent.load(rewrite("future_change.npz", future_change))
 
 
 def test_failed_save_keeps_the_previous_file(tmp_path, monkeypatch):
