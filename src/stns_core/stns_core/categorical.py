@@ -576,15 +576,21 @@ class Learner:
         n = int(np.count_nonzero(old))
         if n == 0:
             return
-        h.valid[old] = False
-        for other in self.order:
-            if (other.pos & old).any():
-                other.shape_dirty = True
-            other.pos &= ~old
-            other.neg &= ~old
-            other.nn_dirty = True
+        self._drop(old)
         self._event("forgotten", sit, records=n)
         self._structure_changed()
+
+    def _drop(self, old: np.ndarray) -> None:
+        """The records of history-slot mask ``old`` leave the history and every population
+        (the NN window may keep their slots: populations hold valid slots only)."""
+        self.hist.valid[old] = False
+        for sit in self.order:
+            if (sit.pos & old).any():
+                sit.shape_dirty = True
+            if ((sit.pos | sit.neg) & old).any():
+                sit.nn_dirty = True
+            sit.pos &= ~old
+            sit.neg &= ~old
 
     def _forget_contradicted(self, slot: int) -> None:
         """Option ``contradiction_radius`` r (not the paper's): the stored records of the
@@ -623,16 +629,7 @@ class Learner:
         n = int(np.count_nonzero(old))
         if n == 0:
             return
-        h.valid[old] = False
-        for sit in self.order:
-            if (sit.pos & old).any():
-                sit.shape_dirty = True
-            if ((sit.pos | sit.neg) & old).any():
-                sit.nn_dirty = True
-            sit.pos &= ~old
-            sit.neg &= ~old
-        if self._recent is not None:
-            self._recent &= ~old
+        self._drop(old)
         self._event("contradicted", self.by_id.get(int(h.s[slot])), records=n)
 
     def _eliminate(self, sit: Situation, reason: str) -> None:
