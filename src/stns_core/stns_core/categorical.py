@@ -609,26 +609,28 @@ class Learner:
         for ever (docs/RESULTS.md: a worse level after the fault and from scratch)."""
         h = self.hist
         cfg = self.cfg
-        eligible = h.valid
+        cand = h.valid & (h.b == h.b[slot])  # the same behaviour's other stored records
+        cand[slot] = False
         if cfg.contradiction_window:
             for sit in self.order:
                 if sit.kind == R_KIND:
                     age = self._missing(sit, cfg.contradiction_window, 0.5, first_miss=True)
                     if age is not None:
                         self._change_at = max(self._change_at, h.total - 1 - age)
-            eligible = eligible & (h.total - 1 - self._ages() < self._change_at)
-            if not eligible.any():
-                return
+            cand &= h.total - 1 - self._ages() < self._change_at  # made before it
+        idx = np.flatnonzero(cand)
+        if len(idx) == 0:
+            return
+        scale = self._history_std()  # over every stored record, not only the candidates
+        d2 = np.sum(((h.x[idx] - h.x[slot]) / scale) ** 2, axis=1)
         goal = h.reward > cfg.r_min_r
         outcome = np.where(goal, -1, h.s_next)
-        scale = self._history_std()
-        d2 = np.sum(((h.x - h.x[slot]) / scale) ** 2, axis=1)
-        old = (eligible & (h.b == h.b[slot]) & (d2 <= cfg.contradiction_radius ** 2)
-               & (outcome != outcome[slot]))
-        old[slot] = False
-        n = int(np.count_nonzero(old))
+        idx = idx[(d2 <= cfg.contradiction_radius ** 2) & (outcome[idx] != outcome[slot])]
+        n = len(idx)
         if n == 0:
             return
+        old = np.zeros_like(h.valid)
+        old[idx] = True
         self._drop(old)
         self._event("contradicted", self.by_id.get(int(h.s[slot])), records=n)
 
