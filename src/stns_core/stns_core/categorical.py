@@ -182,13 +182,36 @@ class Learner:
             self._stn_version = self._version
         return self._stn
 
+    def plan_stn(self) -> Stn:
+        """The STN the planner uses: ``stn()``, or with option ``stn_half_life`` H > 0 the same
+        maximum likelihood with each record weighted 2^(-age / H) (age in records), so where
+        new and old outcomes of a (node, behaviour) pair differ the new ones dominate, while a
+        pair used only long ago keeps its estimate (the weights cancel in the ratio)."""
+        h_life = self.cfg.stn_half_life
+        if h_life <= 0.0:
+            return self.stn()
+        h = self.hist
+        sel = h.valid & (h.b >= 0)
+        lut = self.lut()
+        if self.cfg.margin_stn == "no_positives" and self.order:
+            pos = np.logical_or.reduce([sit.pos for sit in self.order])
+            sel &= (lut[h.s] != 0) | ~pos
+        slots = np.nonzero(sel)[0]
+        age = (h.head - 1 - slots) % h.capacity  # the newest record has age 0
+        n_nodes = len(self.order) + 2
+        s = lut[h.s[slots]]
+        sn = np.where(h.terminal[slots], n_nodes - 1, lut[h.s_next[slots]])
+        return Stn.from_records(s, h.b[slots], sn, h.reward[slots], n_nodes, self.n_behaviours,
+                                weights=np.exp2(-age / h_life))
+
     def planner(self) -> Iprl | Pia:
         if self._planner_version != self._version or self._planner is None:
             cfg = self.cfg
+            stn = self.plan_stn()
             if cfg.planner == "pia":
-                self._planner = Pia(self.stn(), cfg.gamma, cfg.n_max)
+                self._planner = Pia(stn, cfg.gamma, cfg.n_max)
             else:
-                self._planner = Iprl(self.stn(), cfg.gamma, cfg.p_min, cfg.n_max,
+                self._planner = Iprl(stn, cfg.gamma, cfg.p_min, cfg.n_max,
                                      memo=cfg.iprl_memo)
             self._planner_version = self._version
         return self._planner

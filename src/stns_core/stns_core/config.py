@@ -84,6 +84,7 @@ class StnsConfig:
     contradiction_radius: float = 0.0
     contradiction_window: int = 0
     nn_window: int = 0
+    stn_half_life: float = 0.0
     margin_stn: str = "all"
     miss_stop: str = "never"
     explore_untried: int = 0
@@ -129,7 +130,7 @@ class StnsConfig:
                 raise StnsConfigError(f"{name} must be >= {lowest}, got {value!r}")
         for name in ("r_min_r", "gamma", "p_min", "cov_reg", "greedy_prob", "greedy_align_deg",
                      "shape_trim", "boundary_quantile", "range_clip", "margin_plan_reach",
-                     "r_break_fraction", "contradiction_radius"):
+                     "r_break_fraction", "contradiction_radius", "stn_half_life"):
             value = getattr(self, name)
             if isinstance(value, bool | np.bool_) or not isinstance(value, numbers.Real):
                 raise StnsConfigError(f"{name} must be a number, got {value!r}")
@@ -161,6 +162,9 @@ class StnsConfig:
         if self.contradiction_radius < 0.0:
             raise StnsConfigError(
                 f"contradiction_radius must be >= 0 (0 = off), got {self.contradiction_radius!r}")
+        if self.stn_half_life < 0.0:
+            raise StnsConfigError(
+                f"stn_half_life must be >= 0 (0 = off), got {self.stn_half_life!r}")
         if self.range_clip < 0.0:
             raise StnsConfigError(f"range_clip must be >= 0 (0 = off), got {self.range_clip!r}")
         if self.n_min_r > self.history_size or self.n_init_t > self.history_size:

@@ -49,12 +49,18 @@ class Stn:
 
     @classmethod
     def from_records(cls, s: np.ndarray, b: np.ndarray, s_next: np.ndarray,
-                     reward: np.ndarray, n_nodes: int, n_behaviours: int) -> Stn:
-        """Counts from dense node indices of the history's behaviour records."""
+                     reward: np.ndarray, n_nodes: int, n_behaviours: int,
+                     weights: np.ndarray | None = None) -> Stn:
+        """Counts from dense node indices of the history's behaviour records (each record
+        counted with its weight, 1 by default)."""
         key = (s * n_behaviours + b) * n_nodes + s_next
         size = n_nodes * n_behaviours * n_nodes
-        counts = np.bincount(key, minlength=size).astype(float)
-        sums = np.bincount(key, weights=reward, minlength=size)
+        if weights is None:
+            counts = np.bincount(key, minlength=size).astype(float)
+            sums = np.bincount(key, weights=reward, minlength=size)
+        else:
+            counts = np.bincount(key, weights=weights, minlength=size)
+            sums = np.bincount(key, weights=weights * reward, minlength=size)
         shape = (n_nodes, n_behaviours, n_nodes)
         return cls(counts.reshape(shape), sums.reshape(shape))
 

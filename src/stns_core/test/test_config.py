@@ -66,6 +66,8 @@ def test_round_trip_and_replace():
     ("r_break_fraction", 1.0, "r_break_fraction must be in \\[0, 1\\), got 1.0"),
     ("contradiction_radius", -0.1, "contradiction_radius must be >= 0 \\(0 = off\\), got -0.1"),
     ("contradiction_radius", float("nan"), "contradiction_radius must be finite"),
+    ("stn_half_life", -1.0, "stn_half_life must be >= 0 \\(0 = off\\), got -1.0"),
+    ("stn_half_life", float("inf"), "stn_half_life must be finite"),
     ("margin_stn", "window", "margin_stn must be one of"),
     ("miss_stop", "closest", "miss_stop must be one of"),
     ("miss_stop", False, "got the boolean False \\(in YAML, quote"),  # YAML's `off`

@@ -24,6 +24,43 @@ def test_stn_maximum_likelihood_on_a_known_sequence():
     assert stn.successors[2][0] is None
 
 
+def test_weighted_counts_are_a_weighted_maximum_likelihood():
+    s = np.array([0, 0, 0])
+    b = np.array([0, 0, 0])
+    sn = np.array([2, 1, 1])  # goal (node 2) once, node 1 twice
+    r = np.array([10.0, 0.0, -1.0])
+    stn = Stn.from_records(s, b, sn, r, 3, 1, weights=np.array([4.0, 1.0, 3.0]))
+    assert stn.p[0, 0].tolist() == pytest.approx([0, 0.5, 0.5])
+    assert stn.r[0, 0, 1] == pytest.approx(-3.0 / 4.0)  # weighted mean reward
+    assert stn.r[0, 0, 2] == 10.0
+
+
+@pytest.mark.parametrize("half_life", [0.0, 2.0])
+def test_stn_half_life_lets_new_outcomes_outweigh_old_ones_in_the_plan(half_life):
+    lr = make_learner(relabel="never", stn_half_life=half_life)
+    h = lr.hist
+    for reached in (True, False, False, True):  # behaviour 1 from the margin, long ago
+        h.append(np.zeros(2), 0, 1, 10.0 if reached else -1.0, np.zeros(2), 0, reached)
+    for _ in range(6):  # behaviour 0 reached the goal six times
+        h.append(np.zeros(2), 0, 0, 10.0, np.zeros(2), 0, True)
+    for _ in range(4):  # then missed four times in a row
+        h.append(np.zeros(2), 0, 0, -1.0, np.zeros(2), 0, False)
+    lr._version += 1
+    plain, weighted = lr.stn(), lr.plan_stn()
+    assert plain.p[0, 0, 1] == pytest.approx(0.6) and plain.p[0, 1, 1] == pytest.approx(0.5)
+    age = np.arange(13, -1, -1)  # the newest record has age 0
+    w = np.exp2(-age / half_life) if half_life else np.ones(14)
+    assert weighted.p[0, 0, 1] == pytest.approx(w[4:10].sum() / w[4:].sum())
+    assert weighted.p[0, 1, 1] == pytest.approx((w[0] + w[3]) / w[:4].sum())
+    assert weighted.tried.tolist() == plain.tried.tolist()
+    if half_life:
+        assert weighted.p[0, 0, 1] < 0.25  # the four new misses outweigh six older arrivals
+        assert abs(weighted.p[0, 1, 1] - 0.5) < 0.05  # outcomes of one age: weights cancel
+        assert lr.plan(0)[1][0][0] == 1  # so the plan now takes behaviour 1
+    else:
+        assert weighted is plain and lr.plan(0)[1][0][0] == 0  # the paper's choice
+
+
 def test_learner_stn_uses_goal_node_and_current_labels():
     lr = make_learner(relabel="never")
     h = lr.hist
