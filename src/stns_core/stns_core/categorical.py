@@ -164,21 +164,26 @@ class Learner:
             return GOAL
         return self.order[node - 1].id
 
+    def _stn_records(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(slots, node, next node) of the history's behaviour records that count in the STN."""
+        h = self.hist
+        sel = h.valid & (h.b >= 0)
+        lut = self.lut()
+        if self.cfg.margin_stn == "no_positives" and self.order:
+            # option margin_stn: a positive instance classified into the margin was bitten
+            # out of its situation; its stored success no longer speaks for the margin
+            pos = np.logical_or.reduce([sit.pos for sit in self.order])
+            sel &= (lut[h.s] != 0) | ~pos
+        slots = np.nonzero(sel)[0]
+        goal = len(self.order) + 1
+        return slots, lut[h.s[slots]], np.where(h.terminal[slots], goal, lut[h.s_next[slots]])
+
     def stn(self) -> Stn:
         if self._stn_version != self._version or self._stn is None:
+            slots, s, sn = self._stn_records()
             h = self.hist
-            sel = h.valid & (h.b >= 0)
-            lut = self.lut()
-            if self.cfg.margin_stn == "no_positives" and self.order:
-                # option margin_stn: a positive instance classified into the margin was bitten
-                # out of its situation; its stored success no longer speaks for the margin
-                pos = np.logical_or.reduce([sit.pos for sit in self.order])
-                sel &= (lut[h.s] != 0) | ~pos
-            n_nodes = len(self.order) + 2
-            s = lut[h.s[sel]]
-            sn = np.where(h.terminal[sel], n_nodes - 1, lut[h.s_next[sel]])
-            self._stn = Stn.from_records(s, h.b[sel], sn, h.reward[sel], n_nodes,
-                                         self.n_behaviours)
+            self._stn = Stn.from_records(s, h.b[slots], sn, h.reward[slots],
+                                         len(self.order) + 2, self.n_behaviours)
             self._stn_version = self._version
         return self._stn
 
@@ -190,19 +195,11 @@ class Learner:
         h_life = self.cfg.stn_half_life
         if h_life <= 0.0:
             return self.stn()
+        slots, s, sn = self._stn_records()
         h = self.hist
-        sel = h.valid & (h.b >= 0)
-        lut = self.lut()
-        if self.cfg.margin_stn == "no_positives" and self.order:
-            pos = np.logical_or.reduce([sit.pos for sit in self.order])
-            sel &= (lut[h.s] != 0) | ~pos
-        slots = np.nonzero(sel)[0]
         age = (h.head - 1 - slots) % h.capacity  # the newest record has age 0
-        n_nodes = len(self.order) + 2
-        s = lut[h.s[slots]]
-        sn = np.where(h.terminal[slots], n_nodes - 1, lut[h.s_next[slots]])
-        return Stn.from_records(s, h.b[slots], sn, h.reward[slots], n_nodes, self.n_behaviours,
-                                weights=np.exp2(-age / h_life))
+        return Stn.from_records(s, h.b[slots], sn, h.reward[slots], len(self.order) + 2,
+                                self.n_behaviours, weights=np.exp2(-age / h_life))
 
     def planner(self) -> Iprl | Pia:
         if self._planner_version != self._version or self._planner is None:
