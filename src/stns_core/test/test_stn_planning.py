@@ -55,10 +55,24 @@ def test_stn_half_life_lets_new_outcomes_outweigh_old_ones_in_the_plan(half_life
     assert weighted.tried.tolist() == plain.tried.tolist()
     if half_life:
         assert weighted.p[0, 0, 1] < 0.25  # the four new misses outweigh six older arrivals
-        assert abs(weighted.p[0, 1, 1] - 0.5) < 0.05  # outcomes of one age: weights cancel
+        assert abs(weighted.p[0, 1, 1] - 0.5) < 0.05  # outcomes of about one age: the
+        # weights nearly cancel, the estimate stays near the plain 0.5
         assert lr.plan(0)[1][0][0] == 1  # so the plan now takes behaviour 1
     else:
         assert weighted is plain and lr.plan(0)[1][0][0] == 0  # the paper's choice
+
+
+def test_stn_half_life_ages_count_from_the_newest_record_after_the_ring_wraps():
+    lr = make_learner(relabel="never", history_size=6, stn_half_life=1.0)
+    h = lr.hist
+    for reached in (1, 1, 1, 0, 0, 1, 0, 1, 1):  # the last six stay, oldest first: 0 0 1 0 1 1
+        h.append(np.zeros(2), 0, 0, 10.0 if reached else -1.0, np.zeros(2), 0, bool(reached))
+    lr._version += 1
+    assert h.head == 3  # the ring has wrapped: slot 2 holds the newest record
+    w = np.exp2(-np.arange(5.0, -1.0, -1.0))  # ages 5 .. 0 in the order the six were made
+    goal = np.array([0, 0, 1, 0, 1, 1], dtype=bool)
+    assert lr.plan_stn().p[0, 0, 1] == pytest.approx(w[goal].sum() / w.sum())
+    assert lr.stn().p[0, 0, 1] == pytest.approx(0.5)
 
 
 def test_learner_stn_uses_goal_node_and_current_labels():
