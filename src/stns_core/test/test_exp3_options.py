@@ -257,7 +257,7 @@ def test_negatives_from_history_bite_a_new_situation_at_once():
      dict(target_stop="deepest", target_lookahead_ticks=1, plan_stop="higher_utility",
           t_result="unpunished", margin_plan="nearest_r_bitten", margin_plan_reach=2.5,
           margin_plan_window=0, miss_stop="all", pending_r_try="planned_nearest_success",
-          pending_t_try="planned_nearest_success", stn_half_life=300.0)),
+          pending_t_try="planned_nearest_success")),
 ])
 def test_improved_yaml_files_are_the_preset_plus_their_options(name, preset, overrides):
     from pathlib import Path

@@ -109,15 +109,14 @@ def test_cli_bad_arguments_exit_2_with_message(argv, match, capsys):
     assert re.search(match, err), err
 
 
-def test_exp1_improved_yaml_is_exp1_plus_the_eight_readings():
+def test_exp1_improved_yaml_is_exp1_plus_the_seven_readings():
     p = resolve("exp1", WS_CONFIG / "exp1-improved.yaml")
     d = validate("exp1", DEFAULTS["exp1"])
     assert p["agent"]["overrides"] == {
         "target_stop": "deepest", "target_lookahead_ticks": 1, "plan_stop": "higher_utility",
         "t_result": "unpunished", "margin_plan": "nearest_r_bitten", "margin_plan_reach": 2.5,
         "margin_plan_window": 0, "miss_stop": "all",
-        "pending_r_try": "planned_nearest_success", "pending_t_try": "planned_nearest_success",
-        "stn_half_life": 300}
+        "pending_r_try": "planned_nearest_success", "pending_t_try": "planned_nearest_success"}
     assert {k: v for k, v in p.items() if k not in ("agent", "config_source")} == {
         k: v for k, v in d.items() if k not in ("agent", "config_source")}
 
@@ -141,16 +140,14 @@ def test_exp3_improved_yaml_is_exp3_plus_the_best_measured_options():
 def test_exp2_improved_yaml_is_the_exp2_file_plus_the_readings(exp):
     """config/exp2-*-improved.yaml: the paper's Exp. 2 file, 4000 steps after the fault (as
     the runs of docs/RESULTS.md), and the readings of config/exp1-improved.yaml but
-    miss_stop (measured in Exp. 2 on one seed only), pending_t_try (not in the runs of
-    docs/RESULTS.md's Exp. 2 rows) and stn_half_life (measured in Exp. 2 on root seed 1 and not
-    kept there) plus the NN window and the blank restart on an
+    miss_stop (measured in Exp. 2 on one seed only) and pending_t_try (not in the runs of
+    docs/RESULTS.md's Exp. 2 rows) plus the NN window and the blank restart on an
     R-situation whose last 20 uses all missed."""
     p = resolve(exp, WS_CONFIG / f"{exp}-improved.yaml")
     base = resolve(exp, WS_CONFIG / f"{exp}.yaml")
     e1 = dict(resolve("exp1", WS_CONFIG / "exp1-improved.yaml")["agent"]["overrides"])
     assert e1.pop("miss_stop") == "all"
     assert e1.pop("pending_t_try") == "planned_nearest_success"
-    assert e1.pop("stn_half_life") == 300
     assert p["agent"]["overrides"] == {**e1, "nn_window": 300,
                                        "r_break_window": 20, "r_break_fraction": 0.95,
                                        "r_break_forget": "history"}
