@@ -197,9 +197,8 @@ class Learner:
             return self.stn()
         slots, s, sn = self._stn_records()
         h = self.hist
-        age = (h.head - 1 - slots) % h.capacity  # the newest record has age 0
         return Stn.from_records(s, h.b[slots], sn, h.reward[slots], len(self.order) + 2,
-                                self.n_behaviours, weights=np.exp2(-age / h_life))
+                                self.n_behaviours, weights=np.exp2(-self._ages()[slots] / h_life))
 
     def planner(self) -> Iprl | Pia:
         if self._planner_version != self._version or self._planner is None:
@@ -643,9 +642,9 @@ class Learner:
             return
         scale = self._history_std()  # over every stored record, not only the candidates
         d2 = np.sum(((h.x[idx] - h.x[slot]) / scale) ** 2, axis=1)
-        goal = h.reward > cfg.r_min_r
-        outcome = np.where(goal, -1, h.s_next)
-        idx = idx[(d2 <= cfg.contradiction_radius ** 2) & (outcome[idx] != outcome[slot])]
+        both = np.append(idx, slot)  # outcome: the goal reward (-1), else the situation reached
+        outcome = np.where(h.reward[both] > cfg.r_min_r, -1, h.s_next[both])
+        idx = idx[(d2 <= cfg.contradiction_radius ** 2) & (outcome[:-1] != outcome[-1])]
         n = len(idx)
         if n == 0:
             return

@@ -55,12 +55,9 @@ class Stn:
         counted with its weight, 1 by default)."""
         key = (s * n_behaviours + b) * n_nodes + s_next
         size = n_nodes * n_behaviours * n_nodes
-        if weights is None:
-            counts = np.bincount(key, minlength=size).astype(float)
-            sums = np.bincount(key, weights=reward, minlength=size)
-        else:
-            counts = np.bincount(key, weights=weights, minlength=size)
-            sums = np.bincount(key, weights=weights * reward, minlength=size)
+        counts = np.bincount(key, weights=weights, minlength=size).astype(float)
+        sums = np.bincount(key, weights=reward if weights is None else weights * reward,
+                           minlength=size)
         shape = (n_nodes, n_behaviours, n_nodes)
         return cls(counts.reshape(shape), sums.reshape(shape))
 
