@@ -625,7 +625,7 @@ class Learner:
         uses since its extraction when more than half of them missed (``_broken``'s test
         at half). In a world that has not changed, outcomes that differ around one input
         (the rover's position beyond its goal sensor) would otherwise replace each other
-        for ever (docs/RESULTS.md: a worse level after the fault and from scratch)."""
+        for ever (docs/RESULTS-LOG.md: a worse level after the fault and from scratch)."""
         h = self.hist
         cfg = self.cfg
         cand = h.valid & (h.b == h.b[slot])  # the same behaviour's other stored records

@@ -4,7 +4,7 @@
 Ellipsoids, Mahalanobis distances and the std-scaled nearest-neighbour test are all
 equivariant under such a map, and the random draws do not depend on the input. Exp. 2 relies
 on it without saying so: learning from scratch with the goal sensor turned by 90 or by 180
-degrees gives the same records, inputs turned (docs/RESULTS.md, Exp. 2). A reading that
+degrees gives the same records, inputs turned (docs/RESULTS-LOG.md, Exp. 2). A reading that
 treated one axis differently (a per-axis scale taken from one dimension, a bearing computed
 from x alone) would break it.
 """

@@ -3,7 +3,7 @@
     python -m stns_experiments.breakdown RUN [RUN ...] [--span A:B ...]
                                          [--level 10deg] [--mode relearn|scratch]
 
-An analysis of the per-step records (docs/RESULTS.md cites it for Exp. 1's steps 1201-1700
+An analysis of the per-step records (docs/RESULTS-LOG.md cites it for Exp. 1's steps 1201-1700
 and Exp. 2's first steps after a fault). Every behaviour step is counted by where it started
 (the margin, an R-situation or a T-situation) and how it was chosen: *planned* (a plan's
 first behaviour, or the next one of a plan going on) or *unplanned* (random, a try); of the

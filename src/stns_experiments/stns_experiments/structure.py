@@ -2,7 +2,7 @@
 
     python -m stns_experiments.structure RUN [RUN ...] [--by 1200] [--span 300]
 
-An analysis of the per-step records of Exp. 1 and Exp. 3 runs (docs/RESULTS.md, Exp. 1,
+An analysis of the per-step records of Exp. 1 and Exp. 3 runs (docs/RESULTS-LOG.md, Exp. 1,
 "what holds convergence back"). A planned behaviour started in a situation is given a
 *start type*: the type of the situation and of what it aimed at, e.g. ``T2>R0`` (a
 T-situation of clockwise turns toward an R-situation of forward drives) or ``R0>G`` (an
