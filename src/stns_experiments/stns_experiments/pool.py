@@ -218,6 +218,13 @@ def code_note(runs: list[dict], any_code: bool) -> str:
                     f"(git diff of {', '.join(LIBRARY_DIRS)})")
     if dirty:
         note += f"; uncommitted library files at run time: {', '.join(dirty)}"
+    during = changed_during_note(runs)
+    if during:
+        if not any_code:
+            raise ExperimentError(
+                f"library files changed while a run was going ({during}), so its trial sets "
+                f"may have run on different code; pass --any-code to pool it anyway")
+        note += f"; LIBRARY CHANGED DURING A RUN: {during}"
     outside = outside_note(runs)
     if outside:
         if not any_code:
@@ -226,6 +233,19 @@ def code_note(runs: list[dict], any_code: bool) -> str:
                 f"commit does not name the code; pass --any-code to pool it anyway")
         note += f"; LIBRARIES FROM OUTSIDE THE WORKSPACE: {outside}"
     return note
+
+
+def changed_during_note(runs: list[dict]) -> str:
+    """The library files (report-only modules aside) that changed between a run's start and
+    its end (``code_version``'s "changed_during_run"), per run, or ''. Runs recorded before
+    the start was read hold no such list."""
+    parts = []
+    for r in runs:
+        v = r["summary"].get("code_version") or {}
+        files = [f for f in v.get("changed_during_run") or [] if not f.endswith(REPORT_ONLY)]
+        if files:
+            parts.append(f"{r['folder']}: {', '.join(files)}")
+    return "; ".join(parts)
 
 
 def outside_note(runs: list[dict]) -> str:

@@ -31,7 +31,9 @@ from stns_experiments.experiments import (
 from stns_experiments.pool import read_set
 from stns_experiments.report import read_json
 from stns_experiments.runner import (
+    changed_files,
     git_state,
+    library_hashes,
     outside_libraries,
     run_tasks,
     set_seeds,
@@ -86,6 +88,9 @@ class Run:
         self.started = math.floor(time.time())  # result files written since are this run's
         self.errors: dict[str, str] = {}
         self.interrupted = False
+        # the code as the run starts; finish() adds what changed while it went
+        self.code = code_version()
+        self.library = library_hashes(library_packages())
         self.out.mkdir(parents=True, exist_ok=True)
         (self.out / "figures").mkdir(exist_ok=True)
 
@@ -149,7 +154,8 @@ class Run:
                 f"level (last {p['final_window']} steps); value = steps before that block. "
                 f"convergence_step_trailing: first block end from which the trailing "
                 f"{p['trailing_window']}-step window stays within the same band."),
-            "code_version": code_version(),
+            "code_version": {**self.code, "changed_during_run": changed_files(
+                self.library, library_hashes(library_packages()))},
             "interrupted": self.interrupted,
             "errors": self.errors,
             "figures": figures,
@@ -159,23 +165,30 @@ class Run:
         return summary
 
 
-def code_version() -> dict[str, Any]:
-    """Git commit of the workspace, the library files that differed from it, and under
-    "outside" any library imported from elsewhere (``runner.outside_libraries``)."""
+def library_packages() -> dict[str, Path]:
+    """The directories the three libraries of a run are imported from."""
     import importlib.util
 
+    packages = {}
+    for name in ("stns_core", "rover_sim", "stns_experiments"):
+        spec = importlib.util.find_spec(name)
+        if spec is not None and spec.origin:
+            packages[name] = Path(spec.origin).parent
+    return packages
+
+
+def code_version() -> dict[str, Any]:
+    """Git commit of the workspace, the library files that differed from it, and under
+    "outside" any library imported from elsewhere (``runner.outside_libraries``). A run
+    records it as it starts; its summary adds "changed_during_run", the library files
+    (``runner.library_hashes``) that differed between its start and its end."""
     d = workspace_root()
     if d is None:
         return {}
     state = git_state(d, ["src/stns_core", "src/rover_sim", "src/stns_experiments"])
     if state is None:
         return {}
-    packages = {}
-    for name in ("stns_core", "rover_sim", "stns_experiments"):
-        spec = importlib.util.find_spec(name)
-        if spec is not None and spec.origin:
-            packages[name] = Path(spec.origin).parent
-    outside = outside_libraries(d, packages)
+    outside = outside_libraries(d, library_packages())
     if outside:
         state["outside"] = outside
     return state

@@ -263,6 +263,30 @@ def git_state(root: Path, paths: list[str]) -> dict[str, Any] | None:
             "uncommitted": [ln[3:] for ln in dirty.stdout.split("\n") if ln.strip()]}
 
 
+def library_hashes(packages: dict[str, Path]) -> dict[str, str]:
+    """SHA-256 of every ``.py`` file of the given packages (name -> package directory), by
+    "name/relative path". Taken when a run starts and when it ends: the trial sets run in
+    spawned processes that import the libraries when they start, so a file edited meanwhile
+    reaches the later sets, and git's state at either moment alone would not show it."""
+    import hashlib
+
+    out: dict[str, str] = {}
+    for name, pkg in packages.items():
+        pkg = Path(pkg)
+        for f in sorted(pkg.rglob("*.py")):
+            key = f"{name}/{f.relative_to(pkg).as_posix()}"
+            try:
+                out[key] = hashlib.sha256(f.read_bytes()).hexdigest()
+            except OSError:  # removed while we read: it counts as changed
+                out[key] = "unreadable"
+    return out
+
+
+def changed_files(before: dict[str, str], after: dict[str, str]) -> list[str]:
+    """The files of two ``library_hashes`` readings that were added, removed or edited."""
+    return sorted(k for k in before.keys() | after.keys() if before.get(k) != after.get(k))
+
+
 def outside_libraries(root: Path, packages: dict[str, Path]) -> dict[str, dict[str, Any]]:
     """The packages (name -> package directory) that are imported from outside the
     workspace ``root``, e.g. another checkout put first on PYTHONPATH, each with its path and,
