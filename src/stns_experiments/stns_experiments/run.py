@@ -88,9 +88,10 @@ class Run:
         self.started = math.floor(time.time())  # result files written since are this run's
         self.errors: dict[str, str] = {}
         self.interrupted = False
-        # the code as the run starts; finish() adds what changed while it went
+        # the code as the run starts; finish() hashes the same directories again
         self.code = code_version()
-        self.library = library_hashes(library_packages())
+        self.packages = library_packages()
+        self.library = library_hashes(self.packages)
         self.out.mkdir(parents=True, exist_ok=True)
         (self.out / "figures").mkdir(exist_ok=True)
 
@@ -155,7 +156,7 @@ class Run:
                 f"convergence_step_trailing: first block end from which the trailing "
                 f"{p['trailing_window']}-step window stays within the same band."),
             "code_version": {**self.code, "changed_during_run": changed_files(
-                self.library, library_hashes(library_packages()))},
+                self.library, library_hashes(self.packages))},
             "interrupted": self.interrupted,
             "errors": self.errors,
             "figures": figures,
