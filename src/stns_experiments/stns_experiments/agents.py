@@ -10,10 +10,12 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from scipy import sparse
 
 from stns_core import StepRecord
 
 N_BEHAVIOURS = 4
+N_SECTORS = 6       # range-sensor sectors (rover_sim), obs[2:8] in Exp. 3
 
 
 # The baselines record exactly what the learner records, so one set of metrics serves all.
@@ -124,24 +126,45 @@ def orthogonal_cell(x: float, y: float, half: int = 10, size: float = 10.0) -> i
 
 GRID_CELLS = {"polar": (polar_cell, 4 * 24), "orthogonal": (orthogonal_cell, 21 * 21)}
 
+# Above this many (cell, behaviour) rows the model-based learner keeps its model sparse: the
+# 8-D grids (goal cells x 3^6 range levels) would need a dense 10^10-entry count matrix.
+DENSE_MODEL_MAX_ROWS = 4096
+
+
+def range_code(ranges: np.ndarray, edges: tuple[float, ...]) -> int:
+    """The six sector ranges as one number: each sector's level (0 = nearest) in base
+    ``len(edges) + 1``, sector 0 the least significant digit. ``edges`` are the level
+    boundaries in u, increasing (§7.5: two edges give "near, middle and far")."""
+    levels = np.searchsorted(np.asarray(edges, dtype=np.float64), np.asarray(ranges), side="right")
+    base = len(edges) + 1
+    return int(np.dot(levels, base ** np.arange(len(levels))))
+
 
 class GridAgent(_BehaviourAgent):
-    """Tabular learner on a grid of the goal-sensor space (§7.5).
+    """Tabular learner on a grid of the goal-sensor space (§7.5), optionally times the range
+    sensor's sectors cut into levels (the 8-D grids of §7.5).
 
     A behaviour runs until a reward or until the cell changes. Values are per behaviour
     step with discount ``gamma``; an untried (cell, behaviour) pair has ``initial_value``
     (optimistic +10: with zero initial values the grids hardly learn, STNS-NOTES §11).
     ``learner="q"``: one-step Q-learning, step size 1/n(cell, behaviour) unless ``alpha``.
     ``learner="model"``: maximum-likelihood model (counts, mean rewards) and ``sweeps`` of
-    value iteration after every behaviour. Greedy choice (ties at random), with
-    probability ``epsilon`` a random behaviour.
+    value iteration over the tried pairs after every behaviour (dense up to
+    ``DENSE_MODEL_MAX_ROWS`` rows, else sparse; ``sparse`` forces either). Greedy choice
+    (ties at random), with probability ``epsilon`` a random behaviour.
+    ``range_edges``: empty for the 2-D grids of Fig. 13; with k edges, a cell is the goal
+    cell and the level of each of the six sector ranges (obs[2:8]): goal cells x (k+1)^6.
     """
 
     def __init__(self, grid: str, learner: str, rng: np.random.Generator, gamma: float = 0.7,
                  initial_value: float = 10.0, alpha: float | None = None, epsilon: float = 0.0,
-                 sweeps: int = 3, max_ticks: int = 2000) -> None:
+                 sweeps: int = 3, max_ticks: int = 2000, range_edges: tuple[float, ...] = (),
+                 sparse: bool | None = None) -> None:
         super().__init__(rng, max_ticks)
-        self.cell_of, self.n_cells = GRID_CELLS[grid]
+        self.goal_cell, goal_cells = GRID_CELLS[grid]
+        self.range_edges = tuple(float(e) for e in range_edges)
+        self.range_codes = (len(self.range_edges) + 1) ** N_SECTORS if self.range_edges else 1
+        self.n_cells = goal_cells * self.range_codes
         self.learner = learner
         self.gamma, self.init, self.alpha = gamma, initial_value, alpha
         self.epsilon, self.sweeps = epsilon, sweeps
@@ -149,12 +172,19 @@ class GridAgent(_BehaviourAgent):
         self.q = np.full((n, a), float(initial_value))
         self.n = np.zeros((n, a), dtype=np.int64)
         if learner == "model":
-            # transitions to cells 0..n-1 and to the terminal goal (column n)
-            self.counts = np.zeros((n * a, n + 1))
-            self.rsum = np.zeros(n * a)
+            self.sparse = n * a > DENSE_MODEL_MAX_ROWS if sparse is None else bool(sparse)
+            if self.sparse:
+                self._model = _SparseModel(n, a, float(initial_value))
+            else:
+                # transitions to cells 0..n-1 and to the terminal goal (column n)
+                self.counts = np.zeros((n * a, n + 1))
+                self.rsum = np.zeros(n * a)
 
     def state(self, obs: np.ndarray) -> int:
-        return self.cell_of(float(obs[0]), float(obs[1]))
+        cell = self.goal_cell(float(obs[0]), float(obs[1]))
+        if not self.range_edges:
+            return cell
+        return cell * self.range_codes + range_code(obs[2:2 + N_SECTORS], self.range_edges)
 
     def stop(self, start_state: int, obs: np.ndarray) -> bool:
         return self.state(obs) != start_state
@@ -174,7 +204,12 @@ class GridAgent(_BehaviourAgent):
             self.q[s, b] += step * (target - self.q[s, b])
             return
         k = s * N_BEHAVIOURS + b
-        self.counts[k, self.n_cells if terminal else s2] += 1.0
+        s2_col = self.n_cells if terminal else int(s2)
+        if self.sparse:
+            self._model.add(k, s2_col, r)
+            self._model.sweep(self.q, self.gamma, self.sweeps)
+            return
+        self.counts[k, s2_col] += 1.0
         self.rsum[k] += r
         tried = self.n.reshape(-1) > 0
         nk = self.n.reshape(-1)[tried].astype(np.float64)
@@ -184,3 +219,54 @@ class GridAgent(_BehaviourAgent):
         for _ in range(self.sweeps):
             v = np.concatenate([self.q.max(axis=1), [0.0]])
             q[tried] = rmean + self.gamma * (p @ v)
+
+
+class _SparseModel:
+    """The model-based learner's counts for the tried (cell, behaviour) pairs only, and the
+    same value-iteration sweeps as the dense form (each sweep from the values before it)."""
+
+    def __init__(self, n_cells: int, n_behaviours: int, initial_value: float) -> None:
+        self.n_cells, self.a = n_cells, n_behaviours
+        self.row_of: dict[int, int] = {}        # pair k = cell * a + behaviour -> row
+        self.keys: list[int] = []               # row -> pair k
+        self.entry_of: dict[tuple[int, int], int] = {}
+        self.rows: list[int] = []
+        self.cols: list[int] = []
+        self.vals: list[float] = []
+        self.visits: list[int] = []             # per row
+        self.rsum: list[float] = []
+        # v(cell) = max over behaviours of q; untried cells keep the optimistic value; goal 0
+        self.v = np.full(n_cells + 1, float(initial_value))
+        self.v[n_cells] = 0.0
+
+    def add(self, k: int, col: int, r: float) -> None:
+        row = self.row_of.get(k)
+        if row is None:
+            row = self.row_of[k] = len(self.keys)
+            self.keys.append(k)
+            self.visits.append(0)
+            self.rsum.append(0.0)
+        self.visits[row] += 1
+        self.rsum[row] += r
+        e = self.entry_of.get((row, col))
+        if e is None:
+            self.entry_of[(row, col)] = len(self.vals)
+            self.rows.append(row)
+            self.cols.append(col)
+            self.vals.append(1.0)
+        else:
+            self.vals[e] += 1.0
+
+    def sweep(self, q: np.ndarray, gamma: float, sweeps: int) -> None:
+        n_rows = len(self.keys)
+        visits = np.asarray(self.visits, dtype=np.float64)
+        rows = np.asarray(self.rows)
+        counts = sparse.csr_matrix((np.asarray(self.vals) / visits[rows], (rows, self.cols)),
+                                   shape=(n_rows, self.n_cells + 1))
+        rmean = np.asarray(self.rsum) / visits
+        keys = np.asarray(self.keys)
+        cells = np.unique(keys // self.a)
+        flat = q.reshape(-1)
+        for _ in range(sweeps):
+            flat[keys] = rmean + gamma * (counts @ self.v)
+            self.v[cells] = q[cells].max(axis=1)

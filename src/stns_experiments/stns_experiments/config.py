@@ -87,6 +87,7 @@ DEFAULTS: dict[str, dict[str, Any]] = {
         "alpha": None,
         "epsilon": 0.0,
         "sweeps": 3,
+        "range_edges": [],
         "compare_stns": True,
         "from": None,
         "agent": {"preset": "exp1", "overrides": {}},
@@ -137,6 +138,25 @@ def _section(key: str, v: Any) -> dict[str, Any]:
     if not isinstance(overrides, Mapping) or not all(isinstance(k, str) for k in overrides):
         raise ExperimentError(f"{key}.overrides must be a mapping of names, got {overrides!r}")
     return {"preset": preset, "overrides": dict(overrides)}
+
+
+# The 8-D grids hold goal cells x (edges + 1)^6 cells; beyond 3 edges (orthogonal: 1.8
+# million cells) the value table alone outgrows a small machine's memory.
+MAX_RANGE_EDGES = 3
+
+
+def _range_edges(v: Any) -> list[float]:
+    """``range_edges`` of the grid experiment: increasing positive range boundaries (u)."""
+    if not isinstance(v, list):
+        raise ExperimentError(f"range_edges must be a list of range boundaries in u, got {v!r}")
+    if len(v) > MAX_RANGE_EDGES:
+        raise ExperimentError(
+            f"range_edges: at most {MAX_RANGE_EDGES} boundaries (levels^6 range cells per "
+            f"goal cell), got {len(v)}: {v!r}")
+    edges = [_num("range_edges[]", e, 0.0, lo_open=True) for e in v]
+    if any(b <= a for a, b in zip(edges[:-1], edges[1:], strict=True)):
+        raise ExperimentError(f"range_edges must increase, got {v!r}")
+    return edges
 
 
 def validate(exp: str, params: Mapping[str, Any]) -> dict[str, Any]:
@@ -196,6 +216,7 @@ def validate(exp: str, params: Mapping[str, Any]) -> dict[str, Any]:
             p["alpha"] = _num("alpha", p["alpha"], 0.0, 1.0, lo_open=True)
         p["epsilon"] = _num("epsilon", p["epsilon"], 0.0, 1.0)
         p["sweeps"] = _int("sweeps", p["sweeps"], 1)
+        p["range_edges"] = _range_edges(p["range_edges"])
         p["compare_stns"] = _bool("compare_stns", p["compare_stns"])
         if p["from"] is not None and not isinstance(p["from"], (str, os.PathLike)):
             raise ExperimentError(f"from must be a directory path, got {p['from']!r}")

@@ -80,9 +80,14 @@ def check_params(params: dict) -> None:
     rover_sim, _ = _libs()
     w = params["world"]
     try:
-        rover_sim.WorldConfig.preset(w["preset"], **w["overrides"])
+        cfg = rover_sim.WorldConfig.preset(w["preset"], **w["overrides"])
     except (rover_sim.RoverSimError, TypeError) as e:
         raise ExperimentError(f"world: {e}") from None
+    if params.get("range_edges") and cfg.observation_dim != 8:
+        raise ExperimentError(
+            f"range_edges {params['range_edges']!r} grid the range sensor's sectors, but world "
+            f"preset {w['preset']!r} has no range sensor (observation dimension "
+            f"{cfg.observation_dim}); use the exp3 world")
     make_agent_config(params, 0)
 
 
@@ -279,7 +284,8 @@ def task_grid(task: dict, progress) -> dict:
         agent = GridAgent(task["grid"], task["learner"], np.random.default_rng(seeds["agent_seed"]),
                           gamma=params["gamma"], initial_value=params["initial_value"],
                           alpha=params["alpha"], epsilon=params["epsilon"],
-                          sweeps=params["sweeps"], max_ticks=params["max_ticks_per_step"])
+                          sweeps=params["sweeps"], max_ticks=params["max_ticks_per_step"],
+                          range_edges=tuple(params["range_edges"]))
         recs, _ = run_loop(world, agent, task["steps"], progress, params["max_ticks_per_step"] + 1)
     finally:
         world.close()

@@ -135,9 +135,9 @@ def exp2_table(s: dict) -> str:
 
 def grid_table(s: dict) -> str:
     th = list((s.get("stns") or {}).get("behaviours_needed_to_reach", {}))
-    head = ("| learner | final behaviours to goal | cells visited | " +
-            " | ".join(f"behaviours to reach {t}" for t in th) + " |\n|---|---|---|" +
-            "---|" * len(th) + "\n")
+    cols = ["learner", "final behaviours to goal", "final, x STNS", "cells visited"]
+    cols += [f"behaviours to reach {t}" for t in th]
+    head = "| " + " | ".join(cols) + " |\n|" + "---|" * len(cols) + "\n"
     rows = []
     groups = dict(s.get("learners", {}))
     if s.get("stns"):
@@ -147,8 +147,12 @@ def grid_table(s: dict) -> str:
         ratio = g.get("ratio_to_stns", {})
         cells = g.get("cells")
         visited = "-" if cells is None else f"{_num(g.get('cells_visited_mean'), 0)}/{cells}"
-        rows.append(f"| {name} | {_num(g.get('final_behaviours_to_goal'))} | {visited} | " + " | ".join(
-            (_num(need.get(t)) + (f" (x{ratio[t]:.1f})" if ratio.get(t) else "")) for t in th) + " |")
+        final_ratio = g.get("final_ratio_to_stns")
+        cells_row = [name, _num(g.get("final_behaviours_to_goal")),
+                     "-" if final_ratio is None else f"{final_ratio:.1f}", visited]
+        cells_row += [_num(need.get(t)) + (f" (x{ratio[t]:.1f})" if ratio.get(t) else "")
+                      for t in th]
+        rows.append("| " + " | ".join(cells_row) + " |")
     return head + "\n".join(rows)
 
 

@@ -532,13 +532,14 @@ def run_grid(run: Run) -> dict:
     figures: list[str] = []
     if series:
         _safe_figure(figures, run, plots.curve_figure, run.out / "figures" / "grid_vs_stns.png",
-                     series, f"grid baselines vs STNS on Exp. 1 (seed {p['seed']})", B)
+                     series, f"grid baselines vs STNS, world {p['world']['preset']}"
+                     f"{', 8-D grids' if p['range_edges'] else ''} (seed {p['seed']})", B)
     summary = {k: v for k, v in (first or {}).items()}
     summary.update(random_summary(_sorted(res, "random")))
     summary.update({"learners": groups, "stns": stns_sum,
                     "top_level_keys_describe": f"{p['grids'][0]}-{p['learners'][0]}",
                     "grid_settings": {k: p[k] for k in ("gamma", "initial_value", "alpha",
-                                                        "epsilon", "sweeps")},
+                                                        "epsilon", "sweeps", "range_edges")},
                     "stop_rule": "a behaviour stops at any non-zero reward or when the cell "
                                  "changes (or after max_ticks_per_step ticks)",
                     "trial_set_seeds": seeds})

@@ -101,6 +101,19 @@ def test_smoke_grid(tmp_path):
     assert "grid_vs_stns.png" in " ".join(s["figures"])
 
 
+def test_smoke_grid_8d(tmp_path):
+    from stns_experiments.config import find_config_dir
+    cfg = find_config_dir() / "grid-exp3.yaml"
+    _, s = _run(tmp_path, ["grid", "--config", str(cfg), "--steps", "300", "--no-figures",
+                           "--set", "compare_stns=false"] + SMALL)
+    cells = {k: g["cells"] for k, g in s["learners"].items()}
+    assert cells == {"polar-q": 69984, "polar-model": 69984,
+                     "orthogonal-q": 321489, "orthogonal-model": 321489}
+    assert s["grid_settings"]["range_edges"] == [20.0, 32.0] and s["stns"] is None
+    # the range levels split the goal cells: more 8-D cells are visited than goal cells exist
+    assert s["learners"]["polar-q"]["cells_visited_mean"] > 96
+
+
 def test_resume_reuses_finished_trial_sets(tmp_path):
     out, s1 = _run(tmp_path, ["exp1", "--steps", "120", "--no-figures"] + SMALL)
     stamp = (out / "sets" / "set00.json").stat().st_mtime_ns
