@@ -279,9 +279,7 @@ class StnsAgent:
             return run.la_count < 0 and self._passing(run, x)
         run.la_count += 1  # ticks spent inside the target: 0 at the first
         cap = cfg.target_lookahead_ticks
-        if cfg.target_stop == "deepest" and not (  # cap 0: no cap
-                cfg.deepest_miss_window
-                and self.learner.r_missing(run.target, cfg.deepest_miss_window)):
+        if cfg.target_stop == "deepest":  # cap 0: no cap
             return bool(cap and run.la_count >= cap) or not self._deeper(run, x)
         return run.la_count >= cap or not self._stays(run, x)
 

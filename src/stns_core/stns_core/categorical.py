@@ -561,15 +561,6 @@ class Learner:
         return self._missing(sit, self.cfg.r_break_window, self.cfg.r_break_fraction,
                              first_miss)
 
-    def r_missing(self, sid: int, w: int) -> bool:
-        """Did more than half of the last ``w`` uses (its condition behaviour started in it
-        since its extraction) of R-situation ``sid`` miss the goal? False for any other
-        situation, or with fewer than ``w`` such uses."""
-        sit = self.by_id.get(sid)
-        if sit is None or sit.kind != R_KIND:
-            return False
-        return self._missing(sit, w, 0.5, first_miss=False) is not None
-
     def _missing(self, sit: Situation, w: int, fraction: float,
                  first_miss: bool) -> int | None:
         """``_broken``'s test for any window ``w`` (0: never) and ``fraction``."""

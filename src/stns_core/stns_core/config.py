@@ -73,7 +73,6 @@ class StnsConfig:
     boundary_refit: str = "every_step"
     target_lookahead_ticks: int = 0
     target_stop: str = "first"
-    deepest_miss_window: int = 0
     plan_stop: str = "target"
     t_result: str = "reached"
     margin_plan: str = "margin"
@@ -119,7 +118,7 @@ class StnsConfig:
             "target_lookahead_ticks": 0, "max_behaviour_ticks": 0, "event_log_size": 1,
             "elimination_grace_steps": 0, "explore_max_ticks": 0, "r_break_window": 0,
             "margin_plan_window": 0, "nn_window": 0, "explore_untried": 0,
-            "contradiction_window": 0, "deepest_miss_window": 0,
+            "contradiction_window": 0,
         }
         for name, lowest in ints.items():
             value = getattr(self, name)

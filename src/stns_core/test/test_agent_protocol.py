@@ -150,24 +150,6 @@ def test_target_stop_reading(stop, cap, end, ticks):
     assert h.x_next[(h.head - 1) % h.capacity][0] == pytest.approx(end)
 
 
-@pytest.mark.parametrize("reward,window,end,ticks", [
-    (0.0, 0, 0.4, 7),    # three misses, option off: the deepest stop
-    (0.0, 3, 1.9, 2),    # three misses of three uses: the first tick inside, as "first"
-    (10.0, 3, 0.1, 8),   # three goal arrivals: the deepest stop as without the option
-])
-def test_deepest_miss_window_stops_at_the_first_tick_in_a_missing_r(reward, window, end, ticks):
-    agent, rid = trained_agent(target_stop="deepest", deepest_miss_window=window)
-    lr = agent.learner
-    for p in ((0.3, 1.7), (0.3, -1.7), (-0.3, 1.7)):  # uses of R's drive, off the run's line
-        x = np.array(p)
-        lr.add_record(x, lr.classify(x), 0, reward, x + [3.0, 0.0], 0, reward > 0)
-    assert lr.r_missing(rid, 3) is (reward == 0.0)
-    h = lr.hist
-    rec = _run_through_target(agent, RUN_THROUGH_R)
-    assert rec.success is True and rec.next_situation == rid and rec.ticks == ticks
-    assert h.x_next[(h.head - 1) % h.capacity][0] == pytest.approx(end)
-
-
 def test_target_stop_deepest_into_the_margin_stops_at_once():
     agent, rid = trained_agent(target_stop="deepest")
     agent.step(np.array([0.5, 0.0]), 0.0, False)
