@@ -160,7 +160,9 @@ def window_result(table: dict, n_steps: int, params: dict, situations=None) -> d
     st = M.success_counts(table, "T", start, n_steps)
     w2 = M.within_counts(table, start, n_steps, 2)
     out = {"final_behaviours": b, "final_arrivals": a, "success_r": sr, "success_t": st,
-           "within_two": w2}
+           "within_two": w2, "final_ticks": M.span_ticks(table, start, n_steps),
+           "run_ticks": M.span_ticks(table, 0, n_steps),
+           "run_arrivals": M.span_counts(table, 0, n_steps)[1]}
     if situations is not None:
         depth = depth_of(situations)
         for k in (2, 3):
@@ -541,6 +543,9 @@ def summarise_sets(results: list[dict], params: dict, steps: int) -> dict:
         "success_counts_t": list(pooled(results, "success_t")),
         "within_two_behaviours": M.frac(*pooled(results, "within_two")),
         "within_two_counts": list(pooled(results, "within_two")),
+        # control time per arrival (None for results written before the tick counts)
+        "final_ticks_per_arrival": _ticks_per_arrival(results, "final_ticks", "final_arrivals"),
+        "ticks_per_arrival": _ticks_per_arrival(results, "run_ticks", "run_arrivals"),
     }
     for k in ("success_t2", "success_t3", "success_t4plus"):
         if any(r.get(k) is not None for r in results):
@@ -562,6 +567,15 @@ def summarise_sets(results: list[dict], params: dict, steps: int) -> dict:
             out[f"{key}_mean"] = float(np.mean(vals))
             out[f"{key}_sets"] = len(vals)
     return out
+
+
+def _ticks_per_arrival(results: list[dict], ticks: str, arrivals: str) -> float | None:
+    """Pooled control ticks per goal arrival (sum / sum); None if a result lacks the counts
+    or no set arrived."""
+    if any(r.get(ticks) is None or r.get(arrivals) is None for r in results):
+        return None
+    a = sum(r[arrivals] for r in results)
+    return None if a == 0 else float(sum(r[ticks] for r in results) / a)
 
 
 def _median(values: list) -> float | None:

@@ -59,6 +59,14 @@ def span_counts(table: dict[str, np.ndarray], start: int, end: int) -> tuple[int
     return int((~arr).sum()), int(arr.sum())
 
 
+def span_ticks(table: dict[str, np.ndarray], start: int, end: int) -> int:
+    """Control ticks spent in the behaviours of steps start < step <= end: the time a
+    learner takes, where behaviour steps of different stop rules are not comparable (a grid
+    learner's behaviour ends at every cell change)."""
+    sel = (table["step"] > start) & (table["step"] <= end)
+    return int(table["ticks"][sel].sum())
+
+
 def behaviours_to_goal(table: dict[str, np.ndarray], start: int, end: int) -> float:
     b, a = span_counts(table, start, end)
     return float(ratio(b, a))

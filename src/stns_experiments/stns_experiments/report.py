@@ -93,6 +93,10 @@ def learning_table(s: dict) -> str:
         ("situations at the end (mean)", "6 (optimum, Fig. 5b)" if s["experiment"] == "exp1" else "-",
          _num(s.get("situations_final"), 1)),
     ]
+    if s.get("ticks_per_arrival") is not None:
+        rows.append((f"control ticks per goal arrival, last {s.get('final_window')} steps / "
+                     f"whole run", "-", f"{_num(s.get('final_ticks_per_arrival'), 1)} / "
+                     f"{_num(s.get('ticks_per_arrival'), 1)}"))
     if s.get("first_extraction_behaviours_mean") is not None:
         rows.append(("first situation extracted after (behaviours, mean)",
                      _num(paper.get("first_situation_behaviours"), 1),
@@ -135,7 +139,8 @@ def exp2_table(s: dict) -> str:
 
 def grid_table(s: dict) -> str:
     th = list((s.get("stns") or {}).get("behaviours_needed_to_reach", {}))
-    cols = ["learner", "final behaviours to goal", "final, x STNS", "cells visited"]
+    cols = ["learner", "final behaviours to goal", "final, x STNS",
+            "control ticks per arrival, final / whole run", "cells visited"]
     cols += [f"behaviours to reach {t}" for t in th]
     head = "| " + " | ".join(cols) + " |\n|" + "---|" * len(cols) + "\n"
     rows = []
@@ -149,7 +154,11 @@ def grid_table(s: dict) -> str:
         visited = "-" if cells is None else f"{_num(g.get('cells_visited_mean'), 0)}/{cells}"
         final_ratio = g.get("final_ratio_to_stns")
         cells_row = [name, _num(g.get("final_behaviours_to_goal")),
-                     "-" if final_ratio is None else f"{final_ratio:.1f}", visited]
+                     "-" if final_ratio is None else f"{final_ratio:.1f}",
+                     f"{_num(g.get('final_ticks_per_arrival'), 1)} / "
+                     f"{_num(g.get('ticks_per_arrival'), 1)}"
+                     + (f" (x{g['ticks_per_arrival_ratio_to_stns']:.1f})"
+                        if g.get("ticks_per_arrival_ratio_to_stns") else ""), visited]
         cells_row += [_num(need.get(t)) + (f" (x{ratio[t]:.1f})" if ratio.get(t) else "")
                       for t in th]
         rows.append("| " + " | ".join(cells_row) + " |")

@@ -522,6 +522,8 @@ def run_grid(run: Run) -> dict:
                 sf = stns_sum["final_behaviours_to_goal"]
                 s["final_ratio_to_stns"] = (None if not sf or s["final_behaviours_to_goal"] is None
                                             else s["final_behaviours_to_goal"] / sf)
+                st, gt = stns_sum.get("ticks_per_arrival"), s.get("ticks_per_arrival")
+                s["ticks_per_arrival_ratio_to_stns"] = None if not st or gt is None else gt / st
             groups[f"{g}-{lr}"] = s
             first = first or s
             series.append({"label": f"{g} grid, {'Q-learning' if lr == 'q' else 'model-based'} "

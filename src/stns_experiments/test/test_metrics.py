@@ -96,3 +96,26 @@ def test_csv_round_trip(tmp_path):
 def test_percentile_band_ignores_nan():
     lo, hi = M.percentile_band(np.array([[1.0, np.nan], [3.0, np.nan]]))
     assert lo[0] == 1.5 and hi[0] == 2.5 and math.isnan(lo[1])
+
+
+def test_ticks_per_arrival_counts_control_time_and_pools_sums():
+    from stns_experiments.experiments import summarise_sets, window_result
+    # every behaviour record of make_trials lasts 3 ticks, an arrival record 0
+    a = R.to_table(make_trials([3] * 5))   # 20 steps: 15 behaviours, 5 arrivals
+    b = R.to_table(make_trials([9, 9]))    # 20 steps: 18 behaviours, 2 arrivals
+    assert M.span_ticks(a, 0, 20) == 45 and M.span_ticks(a, 16, 20) == 9
+    params = {"final_window": 8, "block_size": 10, "convergence_tol": 0.1,
+              "trailing_window": 10}
+    results = []
+    for t in (a, b):
+        bs, ar = M.block_counts(t, 10, 20)
+        results.append({"block_behaviours": bs.tolist(), "block_arrivals": ar.tolist(),
+                        "situations_final": None, "wall_seconds": 1.0,
+                        **window_result(t, 20, params)})
+    assert results[1]["run_ticks"] == 54 and results[1]["run_arrivals"] == 2
+    s = summarise_sets(results, params, 20)
+    assert s["ticks_per_arrival"] == pytest.approx((45 + 54) / (5 + 2))
+    # steps 13-20: a has 6 behaviours and 2 arrivals; b 7 behaviours and its second arrival
+    assert s["final_ticks_per_arrival"] == pytest.approx((18 + 21) / (2 + 1))
+    old = [{k: v for k, v in r.items() if k != "run_ticks"} for r in results]
+    assert summarise_sets(old, params, 20)["ticks_per_arrival"] is None

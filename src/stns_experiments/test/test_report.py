@@ -84,3 +84,23 @@ def test_main_reports_the_error_and_prints_nothing(tmp_path, capsys):
     out, err = capsys.readouterr()
     assert out == ""
     assert err.startswith("error: run summary: ") and "missing" in err
+
+
+def test_grid_table_rows_match_its_header_with_and_without_stns():
+    learner = {"final_behaviours_to_goal": 800.0, "final_ratio_to_stns": 147.1,
+               "final_ticks_per_arrival": 2000.0, "ticks_per_arrival": 2184.9,
+               "ticks_per_arrival_ratio_to_stns": 35.8, "cells": 321489,
+               "cells_visited_mean": 6201.0,
+               "behaviours_needed_to_reach": {"20": None, "10": None}}
+    stns = {"final_behaviours_to_goal": 5.43, "final_ticks_per_arrival": 55.0,
+            "ticks_per_arrival": 61.1, "behaviours_needed_to_reach": {"20": 447, "10": 447}}
+    for with_stns in (True, False):
+        text = report.grid_table({"learners": {"orthogonal-model": learner},
+                                  "stns": stns if with_stns else None})
+        lines = text.splitlines()
+        widths = {line.count("|") for line in lines}
+        assert len(widths) == 1, lines   # every row has the header's columns
+        row = next(line for line in lines if line.startswith("| orthogonal-model"))
+        assert "| 147.1 |" in row and "2000.0 / 2184.9 (x35.8)" in row and "6201/321489" in row
+        assert ("behaviours to reach 20" in lines[0]) is with_stns
+        assert lines[2].startswith("| STNS | 5.43 |") is with_stns
