@@ -150,7 +150,7 @@ class GridAgent(_BehaviourAgent):
     ``learner="q"``: one-step Q-learning, step size 1/n(cell, behaviour) unless ``alpha``.
     ``learner="model"``: maximum-likelihood model (counts, mean rewards) and ``sweeps`` of
     value iteration over the tried pairs after every behaviour (dense up to
-    ``DENSE_MODEL_MAX_ROWS`` rows, else sparse; ``sparse`` forces either). Greedy choice
+    ``DENSE_MODEL_MAX_ROWS`` rows, else sparse; ``sparse_model`` forces either). Greedy choice
     (ties at random), with probability ``epsilon`` a random behaviour.
     ``range_edges``: empty for the 2-D grids of Fig. 13; with k edges, a cell is the goal
     cell and the level of each of the six sector ranges (obs[2:8]): goal cells x (k+1)^6.
@@ -159,7 +159,7 @@ class GridAgent(_BehaviourAgent):
     def __init__(self, grid: str, learner: str, rng: np.random.Generator, gamma: float = 0.7,
                  initial_value: float = 10.0, alpha: float | None = None, epsilon: float = 0.0,
                  sweeps: int = 3, max_ticks: int = 2000, range_edges: tuple[float, ...] = (),
-                 sparse: bool | None = None) -> None:
+                 sparse_model: bool | None = None) -> None:
         super().__init__(rng, max_ticks)
         self.goal_cell, goal_cells = GRID_CELLS[grid]
         self.range_edges = tuple(float(e) for e in range_edges)
@@ -172,7 +172,8 @@ class GridAgent(_BehaviourAgent):
         self.q = np.full((n, a), float(initial_value))
         self.n = np.zeros((n, a), dtype=np.int64)
         if learner == "model":
-            self.sparse = n * a > DENSE_MODEL_MAX_ROWS if sparse is None else bool(sparse)
+            self.sparse = (n * a > DENSE_MODEL_MAX_ROWS if sparse_model is None
+                           else bool(sparse_model))
             if self.sparse:
                 self._model = _SparseModel(n, a, float(initial_value))
             else:

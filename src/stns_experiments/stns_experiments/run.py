@@ -479,6 +479,15 @@ def run_grid(run: Run) -> dict:
         stns_results = [read_set(f, f"--from {p['from']!r}: STNS trial-set result") for f in files]
         if not isinstance(stns_results[0].get("steps"), int):
             raise ExperimentError(f"--from {p['from']!r}: {str(files[0])!r} has no step count")
+        cfg_file = Path(p["from"]) / "config.json"
+        if cfg_file.is_file():  # compare on the same world: an exp1 run is no 8-D baseline
+            cfg = read_json(cfg_file, f"--from {p['from']!r}: run config")
+            params = cfg.get("params") if isinstance(cfg, dict) else None
+            world = params.get("world") if isinstance(params, dict) else None
+            if world is not None and world != p["world"]:
+                raise ExperimentError(
+                    f"--from {p['from']!r}: its STNS runs are on world {world!r}, this grid "
+                    f"run on {p['world']!r}")
         if stns_results[0]["steps"] < p["steps"]:
             raise ExperimentError(
                 f"--from {p['from']!r}: STNS runs have {stns_results[0]['steps']} steps, "

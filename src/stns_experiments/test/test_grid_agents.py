@@ -43,8 +43,8 @@ def test_8d_state_splits_a_goal_cell_by_ranges_and_2d_ignores_them():
 
 def test_sparse_model_matches_the_dense_one():
     rng = np.random.default_rng(5)
-    dense = _agent("polar", "model", sparse=False)
-    sparse = _agent("polar", "model", sparse=True)
+    dense = _agent("polar", "model", sparse_model=False)
+    sparse = _agent("polar", "model", sparse_model=True)
     assert not dense.sparse and sparse.sparse
     cells = rng.choice(dense.n_cells, size=12, replace=False)   # a few cells, many repeats
     for _ in range(400):

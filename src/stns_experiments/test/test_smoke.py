@@ -163,6 +163,10 @@ def test_grid_from_an_exp1_run_and_a_damaged_one(tmp_path, capsys):
     assert main(grid + ["--out", str(tmp_path / "g")]) == 0
     g = json.loads((tmp_path / "g" / "summary.json").read_text())
     assert g["stns"]["final_behaviours_to_goal"] == s1["final_behaviours_to_goal"]
+    # an exp1 run is no baseline for grids on another world (the 8-D grids of exp3)
+    assert main(grid + ["--set", "world.preset=exp3", "--out", str(tmp_path / "g3")]) == 2
+    assert "its STNS runs are on world {'preset': 'exp1'" in capsys.readouterr().err
+    assert not (tmp_path / "g3" / "summary.json").exists()
     (out / "sets" / "set00.json").write_text('{"key": "set00"}')
     assert main(grid + ["--out", str(tmp_path / "g2")]) == 2
     assert "STNS trial-set result: " in capsys.readouterr().err
