@@ -23,6 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
+from stns_experiments import metrics as M
 from stns_experiments.config import ExperimentError
 from stns_experiments.report import print_or_fail
 from stns_experiments.structure import positive_int, read_tables, run_params
@@ -42,7 +43,7 @@ def counts(tables: list[dict[str, np.ndarray]], start: int, end: int) -> dict[st
         for what in ("planned", "missed", "unplanned"):
             out[f"{kind}_{what}"] = 0
     for t in tables:
-        span = (t["step"] > start) & (t["step"] <= end)
+        span = M.in_span(t, start, end)
         out["arrivals"] += int(np.count_nonzero(span & t["arrival"]))
         beh = span & ~t["arrival"]
         out["behaviours"] += int(np.count_nonzero(beh))

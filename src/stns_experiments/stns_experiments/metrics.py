@@ -52,10 +52,14 @@ def ratio(behaviours, arrivals):
         return np.where(a > 0, b / np.where(a > 0, a, 1.0), np.nan)
 
 
+def in_span(table: dict[str, np.ndarray], start: int, end: int) -> np.ndarray:
+    """Mask of the records of steps start < step <= end."""
+    return (table["step"] > start) & (table["step"] <= end)
+
+
 def span_counts(table: dict[str, np.ndarray], start: int, end: int) -> tuple[int, int]:
     """(behaviours, arrivals) over steps start < step <= end."""
-    sel = (table["step"] > start) & (table["step"] <= end)
-    arr = table["arrival"][sel]
+    arr = table["arrival"][in_span(table, start, end)]
     return int((~arr).sum()), int(arr.sum())
 
 
@@ -63,8 +67,7 @@ def span_ticks(table: dict[str, np.ndarray], start: int, end: int) -> int:
     """Control ticks spent in the behaviours of steps start < step <= end: the time a
     learner takes, where behaviour steps of different stop rules are not comparable (a grid
     learner's behaviour ends at every cell change)."""
-    sel = (table["step"] > start) & (table["step"] <= end)
-    return int(table["ticks"][sel].sum())
+    return int(table["ticks"][in_span(table, start, end)].sum())
 
 
 def behaviours_to_goal(table: dict[str, np.ndarray], start: int, end: int) -> float:
@@ -156,8 +159,8 @@ def first_block_at_or_below(curve, level: float, block_size: int, tol: float = 0
 def success_counts(table: dict[str, np.ndarray], kind: str, start: int, end: int,
                    situations=None) -> tuple[int, int]:
     """(successes, planned behaviours with a known outcome) from ``kind`` situations."""
-    sel = ((table["step"] > start) & (table["step"] <= end) & table["planned"]
-           & (table["kind"] == kind) & ~table["arrival"] & np.isfinite(table["success"]))
+    sel = (in_span(table, start, end) & table["planned"] & (table["kind"] == kind)
+           & ~table["arrival"] & np.isfinite(table["success"]))
     if situations is not None:
         sel &= np.isin(table["situation"], np.asarray(list(situations), dtype=np.int64))
     s = table["success"][sel]
