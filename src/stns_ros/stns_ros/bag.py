@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import json
 import os
+import struct
 from collections.abc import Iterator, Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -24,6 +25,7 @@ from mcap.exceptions import McapError
 from mcap.reader import make_reader
 from mcap.records import Channel, Message, Schema
 from mcap.stream_reader import StreamReader
+from mcap.writer import MCAP0_MAGIC as _MCAP_MAGIC
 from mcap.writer import CompressionType, Writer
 
 from stns_ros.errors import StnsRosError
@@ -257,21 +259,32 @@ def mcap_file(bag: str | os.PathLike[str]) -> Path:
 
 def read_messages(bag: str | os.PathLike[str], topics: set[str] | None = None) -> Iterator[BagMessage]:
     """Messages of a bag in file order. Reads a complete file through its summary, and the
-    complete records of a truncated one (a killed recorder) in a linear scan."""
+    complete records of a truncated one (a killed recorder) in a linear scan. A file that is
+    not MCAP, or a complete one with a damaged chunk (chunk CRCs are checked), raises
+    `StnsRosError` naming the file."""
     path = mcap_file(bag)
     with open(path, "rb") as f:
         try:
-            reader = make_reader(f)
+            reader = make_reader(f, validate_crcs=True)
             summary = reader.get_summary()
-        except (McapError, EOFError, ValueError, AssertionError):
+        except (McapError, EOFError, ValueError, AssertionError, struct.error):
             summary = None
         if summary is not None:
-            for schema, channel, message in reader.iter_messages(
-                topics=list(topics) if topics else None, log_time_order=False
-            ):
+            n = 0
+            messages = reader.iter_messages(topics=list(topics) if topics else None,
+                                            log_time_order=False)
+            while True:
+                try:
+                    schema, channel, message = next(messages)
+                except StopIteration:
+                    return
+                except Exception as e:  # noqa: BLE001 - a CRC, decompression or record error
+                    raise StnsRosError(
+                        f"{str(path)!r} is corrupt after {n} messages read: {type(e).__name__}: {e}"
+                    ) from None
+                n += 1
                 yield BagMessage(channel.topic, schema.name if schema else "", message.log_time,
                                  bytes(message.data))
-            return
     yield from _scan_prefix(path, topics)
 
 
@@ -279,6 +292,14 @@ def _scan_prefix(path: Path, topics: set[str] | None) -> Iterator[BagMessage]:
     schemas: dict[int, Schema] = {}
     channels: dict[int, Channel] = {}
     with open(path, "rb") as f:
+        # A killed recording still starts with the magic the writer puts first; without it
+        # the file is not MCAP at all, and reading it as an empty bag would hide that.
+        head = f.read(len(_MCAP_MAGIC))
+        if head != _MCAP_MAGIC:
+            raise StnsRosError(
+                f"{str(path)!r} is not an MCAP file (starts with {head!r}, not the MCAP magic "
+                f"{_MCAP_MAGIC!r})")
+        f.seek(0)
         it = iter(StreamReader(f, skip_magic=False, emit_chunks=False).records)
         while True:
             try:

@@ -3,6 +3,7 @@ from pathlib import Path
 
 import pytest
 from geometry_msgs.msg import TwistStamped
+from mcap.reader import make_reader
 from rclpy.serialization import serialize_message
 from std_msgs.msg import String
 from stns_ros.bag import (
@@ -88,6 +89,31 @@ def test_killed_writer_leaves_a_readable_prefix(tmp_path):
         assert sum(1 for _ in reader.messages()) == n
     assert sorted(p.name for p in tmp_path.iterdir()) == ["b", "killed"]
     assert recover(killed) == n  # a complete bag is left alone
+
+
+@pytest.mark.parametrize("content", [b"", b"not a bag", b"\x89MCAP"])
+def test_a_file_that_is_not_mcap_is_refused_by_name(tmp_path, content):
+    bag = tmp_path / "fake"
+    bag.mkdir()
+    (bag / "fake.mcap").write_bytes(content)
+    with pytest.raises(StnsRosError, match=r"fake\.mcap' is not an MCAP file"):
+        list(read_messages(bag))
+    assert (bag / "fake.mcap").read_bytes() == content  # left as it was
+
+
+def test_a_complete_bag_with_a_damaged_chunk_is_reported_not_raised_raw(tmp_path):
+    _write(tmp_path / "b", n=500, flush_at=300)  # two chunks, summary written
+    f = tmp_path / "b" / "b.mcap"
+    data = bytearray(f.read_bytes())
+    good = [m for m in read_messages(tmp_path / "b") if m.topic == "/cmd_vel"]
+    assert len(good) == 500
+    with open(f, "rb") as fh:
+        chunk = make_reader(fh).get_summary().chunk_indexes[1]
+    mid = chunk.chunk_start_offset + chunk.chunk_length // 2
+    data[mid:mid + 64] = bytes(64)  # zeros inside the second chunk's compressed data
+    f.write_bytes(bytes(data))
+    with pytest.raises(StnsRosError, match=r"b\.mcap' is corrupt after \d+ messages read"):
+        list(read_messages(tmp_path / "b"))
 
 
 def test_refuses_to_overwrite_and_unknown_topic(tmp_path):
