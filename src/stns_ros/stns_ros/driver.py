@@ -17,6 +17,7 @@ from typing import Any
 import numpy as np
 
 from stns_ros.conversion import u_to_m
+from stns_ros.errors import StnsRosError
 
 N_BEHAVIOURS = 4
 
@@ -95,11 +96,18 @@ class AgentDriver:
 
 
 def make_agent(learner_config: Mapping[str, Any], obs_dim: int, state_in: str = "") -> Any:
-    """A fresh StnsAgent from a full StnsConfig dict, or the saved one at `state_in`."""
+    """A fresh StnsAgent from a full StnsConfig dict, or the saved one at `state_in`, which
+    must take `obs_dim`-D observations and the four behaviours (else `StnsRosError`)."""
     from stns_core import StnsAgent, StnsConfig
 
     if state_in:
-        return StnsAgent.load(state_in)
+        agent = StnsAgent.load(state_in)
+        if (agent.obs_dim, agent.n_behaviours) != (obs_dim, N_BEHAVIOURS):
+            raise StnsRosError(
+                f"saved learner {state_in!r} takes {agent.obs_dim}-D observations and "
+                f"{agent.n_behaviours} behaviours; this world gives {obs_dim}-D observations "
+                f"and {N_BEHAVIOURS} behaviours")
+        return agent
     return StnsAgent(StnsConfig.from_dict(dict(learner_config)), obs_dim=obs_dim,
                      n_behaviours=N_BEHAVIOURS)
 

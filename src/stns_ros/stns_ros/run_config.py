@@ -140,16 +140,23 @@ def parse_run_config(data: Any, source: str = "", base_dir: Path | None = None) 
 
 def _check_library_configs(world: dict, learner: dict) -> None:
     from rover_sim import RoverSimError, WorldConfig
-    from stns_core import StnsConfig
+    from stns_core import StnsConfig, StnsError
 
     try:
-        WorldConfig.preset(world["preset"], **world["overrides"])
+        wc = WorldConfig.preset(world["preset"], **world["overrides"])
     except (RoverSimError, TypeError) as e:
         raise StnsRosError(f"world.overrides: {e}") from None
     try:
         StnsConfig.preset(learner["preset"], **{**learner["overrides"], "seed": learner["seed"]})
     except Exception as e:  # StnsError subclasses; the library's message names the field
         raise StnsRosError(f"learner.overrides: {e}") from None
+    if learner["state_in"]:  # read it now: a bad file would otherwise stop the agent mid-run
+        from stns_ros.driver import make_agent
+
+        try:
+            make_agent({}, wc.observation_dim, learner["state_in"])
+        except (StnsError, StnsRosError, OSError) as e:
+            raise StnsRosError(f"learner.state_in: {e}") from None
 
 
 def load_run_config(path: str | Path) -> dict[str, Any]:

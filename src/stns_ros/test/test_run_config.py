@@ -59,3 +59,21 @@ def test_bad_yaml_names_the_file(tmp_path):
     p.write_text(yaml.safe_dump({"run": {"steps": "many"}}))
     with pytest.raises(StnsRosError, match=r"run.yaml: run.steps must be an integer >= 1, got 'many'"):
         load_run_config(p)
+
+
+def test_a_saved_learner_is_read_and_its_dimension_checked_before_the_run(tmp_path):
+    from stns_core import StnsAgent, StnsConfig
+
+    two_d = tmp_path / "exp1.npz"
+    StnsAgent(StnsConfig.preset("exp1"), obs_dim=2, n_behaviours=4).save(two_d)
+    ok = parse_run_config({**BASE, "learner": {"state_in": str(two_d)}}, "", tmp_path)
+    assert ok["learner"]["state_in"] == str(two_d)
+    with pytest.raises(StnsRosError, match=r"learner.state_in: saved learner .*exp1.npz' takes "
+                                           r"2-D observations .* this world gives 8-D"):
+        parse_run_config({**BASE, "world": {"preset": "exp3"},
+                          "learner": {"state_in": str(two_d)}}, "", tmp_path)
+    cut = tmp_path / "cut.npz"
+    cut.write_bytes(two_d.read_bytes()[:300])  # a copy that stopped part-way
+    with pytest.raises(StnsRosError, match=r"learner.state_in: .*cut.npz: not a readable learner"):
+        parse_run_config({**BASE, "learner": {"state_in": str(cut)}}, "", tmp_path)
+    assert StnsAgent.load(two_d).obs_dim == 2  # the good file is untouched
