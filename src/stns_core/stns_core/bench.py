@@ -27,6 +27,7 @@ import numpy as np
 from .agent import StnsAgent, _Running
 from .categorical import GOAL
 from .config import StnsConfig
+from .errors import StnsError
 from .situation import R_KIND, T_KIND
 
 N_SITUATIONS = 20
@@ -188,16 +189,29 @@ def main(args=None) -> int:
     ns = parser.parse_args(args)
     out = sys.stdout
     if ns.learn:
+        for name, value, lowest in (("--steps", ns.steps, 1), ("--seeds", ns.seeds, 1),
+                                    ("--lookahead", ns.lookahead, 0)):
+            if value < lowest:
+                parser.error(f"{name} must be >= {lowest}, got {value}")
         overrides = {}
         for item in ns.set:
-            key, _, value = item.partition("=")
+            key, eq, value = item.partition("=")
+            if not eq:
+                parser.error(f"--set takes KEY=VALUE, got {item!r}")
             default = getattr(StnsConfig(), key, None)
-            if isinstance(default, bool):
-                overrides[key] = value.lower() in ("1", "true", "yes")
-            elif default is not None:
-                overrides[key] = type(default)(value)
-            else:
-                overrides[key] = value
+            try:
+                if isinstance(default, bool):
+                    overrides[key] = value.lower() in ("1", "true", "yes")
+                elif default is not None:
+                    overrides[key] = type(default)(value)
+                else:
+                    overrides[key] = value
+            except ValueError:
+                parser.error(f"--set {key}: {value!r} is not a {type(default).__name__}")
+        try:
+            StnsConfig.preset("exp1", **overrides)
+        except (StnsError, TypeError) as e:
+            parser.error(f"--set: {e}")
         curves = run_learn(ns.steps, list(range(ns.seeds)), ns.lookahead, overrides)
         out.write("behaviours per goal arrival by 1000-step block (kinematic Exp. 1 sketch)\n")
         for seed, curve in enumerate(curves):

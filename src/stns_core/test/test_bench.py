@@ -1,5 +1,7 @@
 """The benchmark command runs and builds the 20 situations it claims to time."""
 
+import pytest
+
 from stns_core import bench
 
 
@@ -14,3 +16,19 @@ def test_bench_learn_cli(capsys):
                        "--set", "random_stop=reward"]) == 0
     out = capsys.readouterr().out
     assert "seed 0:" in out and "last block mean" in out
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["--steps", "0"], "--steps must be >= 1, got 0"),
+    (["--seeds", "0"], "--seeds must be >= 1, got 0"),
+    (["--lookahead", "-4"], "--lookahead must be >= 0, got -4"),
+    (["--set", "gamma"], "--set takes KEY=VALUE, got 'gamma'"),
+    (["--set", "gamma=x"], "--set gamma: 'x' is not a float"),
+    (["--set", "gamma=2"], "gamma must be in [0, 1), got 2.0"),
+    (["--set", "nope=3"], "unknown StnsConfig keys: ['nope']"),
+])
+def test_bench_learn_cli_names_a_bad_value(argv, message, capsys):
+    with pytest.raises(SystemExit) as e:
+        bench.main(["--learn", *argv])
+    assert e.value.code == 2
+    assert message in capsys.readouterr().err
