@@ -114,6 +114,10 @@ def main(args: Sequence[str] | None = None) -> int:
     extra = dict(_parse_override(item, parser) for item in ns.set)
     if ns.seeds < 1 or ns.steps < 1:
         parser.error(f"--seeds and --steps must be >= 1, got {ns.seeds} and {ns.steps}")
+    if ns.max_ticks < 1:
+        parser.error(f"--max-ticks must be >= 1, got {ns.max_ticks}")
+    if not 0 <= ns.first_seed <= 2**32 - ns.seeds:
+        parser.error(f"--first-seed must be in [0, 2**32 - seeds], got {ns.first_seed}")
     tasks = TASKS if ns.task == "all" else (ns.task,)
     if ns.post_collision == "all":
         rules: tuple[str | None, ...] = POST_COLLISION_RULES

@@ -73,3 +73,16 @@ def test_command_lines_print_figures(capsys):
     assert bench_main(["--task", "exp3", "--ticks", "50", "--steps", "20"]) == 0
     text = capsys.readouterr().out
     assert "ticks/s" in text and "behaviour steps" in text and "steps/s" in text
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["--seeds", "0"], "--seeds and --steps must be >= 1, got 0 and"),
+    (["--max-ticks", "0"], "--max-ticks must be >= 1, got 0"),
+    (["--first-seed", "-2"], "--first-seed must be in [0, 2**32 - seeds], got -2"),
+    (["--set", "room_size=-1"], "room_size must be positive, got -1"),
+])
+def test_calibrate_names_a_bad_value(argv, message, capsys):
+    with pytest.raises(SystemExit) as e:
+        calibrate_main(["--task", "exp1", *argv])
+    assert e.value.code == 2
+    assert message in capsys.readouterr().err
