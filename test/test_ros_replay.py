@@ -23,6 +23,17 @@ def test_verify_passes_on_the_recorded_run(plain_run, tmp_path):
     assert (tmp_path / "learning_curve.png").exists() and (tmp_path / "summary.json").exists()
 
 
+def test_replay_keeps_the_run_folder_and_refuses_a_nan_rate(plain_run, tmp_path):
+    before = {p.name: p.read_bytes() for p in plain_run.iterdir() if p.is_file()}
+    assert "summary.json" in before
+    for out in (plain_run, plain_run / "."):
+        res = replay(plain_run / "bag", "--no-publish", "--out", out)
+        assert res.returncode != 0 and "is a run folder" in res.stderr, res.stdout + res.stderr
+    assert {p.name: p.read_bytes() for p in plain_run.iterdir() if p.is_file()} == before
+    res = replay(plain_run / "bag", "--rate", "nan", "--out", tmp_path)
+    assert res.returncode != 0 and "--rate must be a finite number >= 0, got nan" in res.stderr
+
+
 def _tampered_copy(src, dst, which: int):
     """Copy the bag, with the `which`-th /cmd_vel turned the other way."""
     from geometry_msgs.msg import TwistStamped

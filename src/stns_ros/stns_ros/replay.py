@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import sys
 import time
 from pathlib import Path
@@ -157,8 +158,8 @@ def main(args=None) -> None:
     ns = parser.parse_args(args)
     try:
         bag = require_bag(ns.bag)
-        if ns.rate < 0:
-            raise StnsRosError(f"--rate must be >= 0, got {ns.rate}")
+        if not math.isfinite(ns.rate) or ns.rate < 0:
+            raise StnsRosError(f"--rate must be a finite number >= 0, got {ns.rate}")
         if ns.recover:
             from stns_ros.bag import recover
 
@@ -166,6 +167,11 @@ def main(args=None) -> None:
         run = load_run(bag)
         summary = summarize(run, bag)
         out = Path(ns.out) if ns.out else bag.resolve().parent / "replay"
+        if out.resolve() == bag.resolve().parent or (out / "run_config.json").exists():
+            # the bring-up's own summary.json and plots are the run's record: keep them
+            raise StnsRosError(
+                f"--out {str(out)!r} is a run folder (it holds the bag or run_config.json); its "
+                "summary.json and plots would be overwritten: choose another folder")
         out.mkdir(parents=True, exist_ok=True)
         (out / "summary.json").write_text(json.dumps(summary, indent=2, sort_keys=True))
         plots = write_plots(run, summary, out)
