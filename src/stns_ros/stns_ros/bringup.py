@@ -52,6 +52,12 @@ class Bringup:
             if not (out / RUN_MARK).exists():
                 raise StnsRosError(
                     f"--out {str(out)!r} exists and is not an stns run folder; not overwriting")
+            state_in = self.cfg["learner"]["state_in"]
+            if state_in and Path(state_in).resolve().is_relative_to(out.resolve()):
+                # the agent loads it after the folder is replaced: it would be gone
+                raise StnsRosError(
+                    f"learner.state_in {state_in!r} lies inside --out {str(out)!r}, which this "
+                    "run replaces; copy the learner elsewhere or choose another --out")
             shutil.rmtree(out)
         (out / "logs").mkdir(parents=True)
         (out / RUN_MARK).write_text("stns_bringup run folder (replaced by the next run here)\n")
