@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import copy
 import dataclasses
+import json
 import logging
 import math
 import time
@@ -92,8 +93,42 @@ class Run:
         self.code = code_version()
         self.packages = library_packages()
         self.library = library_hashes(self.packages)
+        self._check_earlier_run()
         self.out.mkdir(parents=True, exist_ok=True)
         (self.out / "figures").mkdir(exist_ok=True)
+
+    # parameters a --resume may change: the figures drawn, and more trial sets (set i's seeds
+    # do not depend on how many sets there are)
+    RESUMABLE = ("figures", "trial_sets")
+
+    def _check_earlier_run(self) -> None:
+        """An earlier run's folder is continued with --resume and the same parameters, never
+        written over: a new run there would replace some of its trial sets and leave the rest
+        beside the new ones."""
+        cfg = self.out / "config.json"
+        sets = sorted((self.out / "sets").glob("*.json")) if (self.out / "sets").is_dir() else []
+        if not cfg.is_file() and not sets and not (self.out / "summary.json").is_file():
+            return
+        if not self.resume:
+            raise ExperimentError(
+                f"--out {str(self.out)!r} holds an earlier run ({len(sets)} result files in sets/"
+                f"{', config.json' if cfg.is_file() else ''}); add --resume to continue it with "
+                "the same parameters, or choose another --out (nothing was changed)")
+        if not cfg.is_file():
+            return
+        earlier = read_json(cfg, "--resume: the earlier run's config")
+        old = earlier.get("params") if isinstance(earlier, dict) else None
+        if not isinstance(old, dict):
+            raise ExperimentError(f"--resume: {str(cfg)!r} holds no 'params' mapping")
+        new = json.loads(json.dumps(self.params))
+        differ = sorted(k for k in set(old) | set(new)
+                        if k not in self.RESUMABLE and old.get(k) != new.get(k))
+        if differ:
+            shown = "; ".join(f"{k}: {old.get(k)!r} (earlier) vs {new.get(k)!r} (now)"
+                              for k in differ[:5])
+            raise ExperimentError(
+                f"--resume: the run in {str(self.out)!r} was made with other parameters: {shown}; "
+                "resume it with the same ones, or choose another --out")
 
     def tasks(self, tasks: list[dict], label: str) -> dict[str, dict]:
         if self.interrupted:

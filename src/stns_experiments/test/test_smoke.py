@@ -124,6 +124,24 @@ def test_resume_reuses_finished_trial_sets(tmp_path):
     assert s2["behaviours_to_goal_by_block"] == s1["behaviours_to_goal_by_block"]
 
 
+def test_an_earlier_run_is_not_written_over(tmp_path, capsys):
+    """Without --resume, or with other parameters, a run into an earlier run's folder is
+    refused before anything there changes; --resume may add trial sets and figures."""
+    out, _ = _run(tmp_path, ["exp1", "--steps", "120", "--no-figures"] + SMALL)
+    files = {p: p.read_bytes() for p in out.rglob("*") if p.is_file()}
+    assert main(["exp1", "--steps", "120", "--no-figures", "--out", str(out)] + SMALL) == 2
+    assert "holds an earlier run" in capsys.readouterr().err
+    assert main(["exp1", "--steps", "150", "--no-figures", "--resume", "--out", str(out)]
+                + SMALL) == 2
+    assert "steps: 120 (earlier) vs 150 (now)" in capsys.readouterr().err
+    assert {p: p.read_bytes() for p in out.rglob("*") if p.is_file()} == files
+    assert main(["exp1", "--steps", "120", "--resume", "--out", str(out)] + SMALL
+                + ["--trial-sets", "2"]) == 0  # one set more, and the figures
+    assert (out / "sets" / "set00.json").read_bytes() == files[out / "sets" / "set00.json"]
+    assert (out / "sets" / "set01.json").is_file()
+    assert json.loads((out / "summary.json").read_text())["trial_sets"] == 2
+
+
 @pytest.mark.parametrize("content, message", [
     ("{cut", "is not readable JSON"),
     ('{"key": "set00"}', "lacks block_behaviours, block_arrivals"),
