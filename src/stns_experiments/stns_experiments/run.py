@@ -93,9 +93,15 @@ class Run:
         self.code = code_version()
         self.packages = library_packages()
         self.library = library_hashes(self.packages)
+        if self.out.exists() and not self.out.is_dir():
+            raise ExperimentError(f"--out {str(self.out)!r} is a file, not a folder")
         self._check_earlier_run()
-        self.out.mkdir(parents=True, exist_ok=True)
-        (self.out / "figures").mkdir(exist_ok=True)
+        try:
+            self.out.mkdir(parents=True, exist_ok=True)
+            (self.out / "figures").mkdir(exist_ok=True)
+        except OSError as e:
+            raise ExperimentError(f"--out {str(self.out)!r}: cannot make the folder: "
+                                  f"{e.strerror}") from None
 
     # parameters a --resume may change: the figures drawn, and more trial sets (set i's seeds
     # do not depend on how many sets there are)

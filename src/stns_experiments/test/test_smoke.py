@@ -142,6 +142,15 @@ def test_an_earlier_run_is_not_written_over(tmp_path, capsys):
     assert json.loads((out / "summary.json").read_text())["trial_sets"] == 2
 
 
+def test_an_out_that_cannot_be_a_folder_is_named(tmp_path, capsys):
+    (tmp_path / "afile").write_text("kept")
+    assert main(["exp1", "--steps", "20", "--out", str(tmp_path / "afile")] + SMALL) == 2
+    assert "afile' is a file, not a folder" in capsys.readouterr().err
+    assert main(["exp1", "--steps", "20", "--out", str(tmp_path / "afile" / "x")] + SMALL) == 2
+    assert "cannot make the folder" in capsys.readouterr().err
+    assert (tmp_path / "afile").read_text() == "kept"
+
+
 @pytest.mark.parametrize("content, message", [
     ("{cut", "is not readable JSON"),
     ('{"key": "set00"}', "lacks block_behaviours, block_arrivals"),
