@@ -32,6 +32,10 @@ def test_replay_keeps_the_run_folder_and_refuses_a_nan_rate(plain_run, tmp_path)
     assert {p.name: p.read_bytes() for p in plain_run.iterdir() if p.is_file()} == before
     res = replay(plain_run / "bag", "--rate", "nan", "--out", tmp_path)
     assert res.returncode != 0 and "--rate must be a finite number >= 0, got nan" in res.stderr
+    (tmp_path / "afile").write_text("kept")
+    res = replay(plain_run / "bag", "--no-publish", "--out", tmp_path / "afile")
+    assert res.returncode != 0 and "afile' is a file, not a folder" in res.stderr
+    assert (tmp_path / "afile").read_text() == "kept"
 
 
 def _tampered_copy(src, dst, which: int):

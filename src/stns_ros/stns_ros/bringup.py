@@ -59,7 +59,10 @@ class Bringup:
                     f"learner.state_in {state_in!r} lies inside --out {str(out)!r}, which this "
                     "run replaces; copy the learner elsewhere or choose another --out")
             shutil.rmtree(out)
-        (out / "logs").mkdir(parents=True)
+        try:
+            (out / "logs").mkdir(parents=True)
+        except OSError as e:
+            raise StnsRosError(f"--out {str(out)!r}: cannot make the run folder: {e.strerror}") from None
         (out / RUN_MARK).write_text("stns_bringup run folder (replaced by the next run here)\n")
         run_json = json.dumps(self.cfg, sort_keys=True)
         (out / "run_config.json").write_text(json.dumps(self.cfg, indent=2, sort_keys=True))

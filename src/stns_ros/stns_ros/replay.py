@@ -172,7 +172,12 @@ def main(args=None) -> None:
             raise StnsRosError(
                 f"--out {str(out)!r} is a run folder (it holds the bag or run_config.json); its "
                 "summary.json and plots would be overwritten: choose another folder")
-        out.mkdir(parents=True, exist_ok=True)
+        if out.exists() and not out.is_dir():
+            raise StnsRosError(f"--out {str(out)!r} is a file, not a folder")
+        try:
+            out.mkdir(parents=True, exist_ok=True)
+        except OSError as e:
+            raise StnsRosError(f"--out {str(out)!r}: cannot make the folder: {e.strerror}") from None
         (out / "summary.json").write_text(json.dumps(summary, indent=2, sort_keys=True))
         plots = write_plots(run, summary, out)
         print(format_summary(summary))

@@ -37,3 +37,11 @@ def test_an_earlier_run_folder_is_replaced(tmp_path):
     cfg = parse_run_config({"run": {"steps": 10}}, "", tmp_path)
     Bringup(cfg, tmp_path / "run").prepare()
     assert not state.exists() and (tmp_path / "run" / "run_config.json").exists()
+
+
+def test_an_out_that_cannot_be_made_is_named(tmp_path):
+    (tmp_path / "afile").write_text("kept")
+    cfg = parse_run_config({"run": {"steps": 10}}, "", tmp_path)
+    with pytest.raises(StnsRosError, match=r"afile/run': cannot make the run folder"):
+        Bringup(cfg, tmp_path / "afile" / "run").prepare()
+    assert (tmp_path / "afile").read_text() == "kept"
