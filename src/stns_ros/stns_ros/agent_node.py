@@ -17,6 +17,8 @@ from __future__ import annotations
 import dataclasses
 import json
 import math
+import os
+import tempfile
 import time
 
 import numpy as np
@@ -107,6 +109,11 @@ class StnsAgentNode(Node):
                                       "Log progress every this many behaviour steps.",
                                       range=(1, 10**9))
         self.params = p
+        for name in ("state_out", "stats_out"):  # found out at shutdown, the learner would be lost
+            folder = os.path.dirname(os.path.abspath(p[name])) if p[name] else ""
+            if folder and not (os.path.isdir(folder) and os.access(folder, os.W_OK)):
+                raise StnsRosError(f"{name}: folder {folder!r} of {p[name]!r} does not exist "
+                                   "or is not writable")
         self.add_on_set_parameters_callback(self._validate)
         learner = {f.name: p[f.name] for f in learner_fields()}
         try:
@@ -334,7 +341,13 @@ class StnsAgentNode(Node):
                 }, f)
         out = self.params["state_out"]
         if out:
-            self.driver.agent.save(out)
+            try:
+                self.driver.agent.save(out)
+            except OSError as e:  # the disk filled or the folder went: keep the learner anyway
+                spare = os.path.join(tempfile.gettempdir(), f"stns_learner_{os.getpid()}.npz")
+                self.get_logger().error(f"cannot save the learner to {out}: {e}; saving to {spare}")
+                out = spare
+                self.driver.agent.save(out)
             self.get_logger().info(f"learner saved to {out}")
 
 

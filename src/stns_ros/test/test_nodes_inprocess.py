@@ -41,6 +41,34 @@ def test_bad_start_parameters_are_refused(rclpy_context):
         RoverSimNode(parameter_overrides=[Parameter("world_overrides", value='{"room_size": -3}')])
 
 
+def test_agent_state_out_is_checked_at_start_and_the_learner_kept_at_shutdown(
+        rclpy_context, tmp_path):
+    import os
+    import shutil
+    import tempfile
+
+    from stns_ros.agent_node import StnsAgentNode
+    from stns_ros.errors import StnsRosError
+
+    from stns_core import StnsAgent
+
+    with pytest.raises(StnsRosError, match=r"state_out: folder '.*nowhere' of .* does not exist"):
+        StnsAgentNode(parameter_overrides=[
+            Parameter("state_out", value=str(tmp_path / "nowhere" / "s.npz"))])
+    (tmp_path / "gone").mkdir()
+    node = StnsAgentNode(parameter_overrides=[
+        Parameter("state_out", value=str(tmp_path / "gone" / "s.npz"))])
+    shutil.rmtree(tmp_path / "gone")  # the folder goes while the node runs
+    spare = os.path.join(tempfile.gettempdir(), f"stns_learner_{os.getpid()}.npz")
+    try:
+        node.close()
+        assert StnsAgent.load(spare).obs_dim == node.obs_dim  # saved elsewhere, not lost
+    finally:
+        node.destroy_node()
+        if os.path.exists(spare):
+            os.unlink(spare)
+
+
 def test_agent_parameters_have_descriptors(rclpy_context):
     from stns_ros.agent_node import StnsAgentNode
 
