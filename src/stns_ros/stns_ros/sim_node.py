@@ -256,6 +256,16 @@ class RoverSimNode(Node):
         self.frame += 1
         self._publish_frame(obs, reward, terminated, info)
 
+    def _command(self, msg: TwistStamped) -> tuple[float, float]:
+        """(v u/s, w rad/s) of a /cmd_vel; a non-finite one stops the rover (the world would
+        refuse it and the node end), with a warning naming it."""
+        v, w = msg.twist.linear.x, msg.twist.angular.z
+        if math.isfinite(v) and math.isfinite(w):
+            return m_to_u(v), float(w)
+        self.get_logger().warn(f"/cmd_vel with linear.x={v!r}, angular.z={w!r}: not finite, "
+                               "taken as a stop", throttle_duration_sec=5.0)
+        return 0.0, 0.0
+
     def _on_cmd(self, data: bytes) -> None:
         msg = deserialize_message(data, TwistStamped)
         if msg.header.frame_id == "watchdog":
@@ -267,7 +277,7 @@ class RoverSimNode(Node):
         if self.lockstep:
             if t != current:
                 return  # a duplicate answer to a frame already advanced
-            self.cmd = (m_to_u(msg.twist.linear.x), float(msg.twist.angular.z))
+            self.cmd = self._command(msg)
             if self.recorder:
                 self.recorder.write(T.CMD_VEL, data, t)
             self._advance()
@@ -275,7 +285,7 @@ class RoverSimNode(Node):
         else:
             if self.recorder:
                 self.recorder.write(T.CMD_VEL, data, current)
-            self.cmd = (m_to_u(msg.twist.linear.x), float(msg.twist.angular.z))
+            self.cmd = self._command(msg)
 
     def _free_tick(self) -> None:
         self._advance()

@@ -31,6 +31,30 @@ def test_fault_parameters_are_validated_with_a_reason(sim):
     assert not res.successful  # read-only
 
 
+def test_a_non_finite_command_stops_the_rover_instead_of_ending_the_simulator(sim):
+    import math
+
+    from geometry_msgs.msg import TwistStamped
+    from rclpy.serialization import serialize_message
+    from stns_ros.conversion import set_stamp
+
+    def answer(v: float, w: float) -> None:  # the lockstep answer to the current frame
+        msg = TwistStamped()
+        set_stamp(msg.header.stamp, sim.frame * sim.tick_ns)
+        msg.twist.linear.x, msg.twist.angular.z = v, w
+        sim._on_cmd(serialize_message(msg))
+
+    before = sim.world.pose
+    answer(float("nan"), 0.5)
+    assert sim.frame == 1 and sim.cmd == (0.0, 0.0)
+    moved = lambda: math.dist(sim.world.pose[:2], before[:2])  # noqa: E731
+    assert moved() < 0.01  # stopped (the physics settles by a few thousandths of a unit)
+    answer(0.3, float("inf"))
+    assert sim.frame == 2 and sim.cmd == (0.0, 0.0)
+    answer(0.3, 0.0)  # a good command drives again
+    assert sim.frame == 3 and sim.cmd[0] > 0 and moved() > 0.1
+
+
 def test_bad_start_parameters_are_refused(rclpy_context):
     from stns_ros.errors import StnsRosError
     from stns_ros.sim_node import RoverSimNode
