@@ -271,20 +271,18 @@ def read_messages(bag: str | os.PathLike[str], topics: set[str] | None = None) -
             summary = None
         if summary is not None:
             n = 0
-            messages = reader.iter_messages(topics=list(topics) if topics else None,
-                                            log_time_order=False)
-            while True:
-                try:
-                    schema, channel, message = next(messages)
-                except StopIteration:
-                    return
-                except Exception as e:  # noqa: BLE001 - a CRC, decompression or record error
-                    raise StnsRosError(
-                        f"{str(path)!r} is corrupt after {n} messages read: {type(e).__name__}: {e}"
-                    ) from None
-                n += 1
-                yield BagMessage(channel.topic, schema.name if schema else "", message.log_time,
-                                 bytes(message.data))
+            try:
+                for schema, channel, message in reader.iter_messages(
+                    topics=list(topics) if topics else None, log_time_order=False
+                ):
+                    n += 1
+                    yield BagMessage(channel.topic, schema.name if schema else "",
+                                     message.log_time, bytes(message.data))
+            except Exception as e:  # noqa: BLE001 - a CRC, decompression or record error
+                raise StnsRosError(
+                    f"{str(path)!r} is corrupt after {n} messages read: {type(e).__name__}: {e}"
+                ) from None
+            return
     yield from _scan_prefix(path, topics)
 
 

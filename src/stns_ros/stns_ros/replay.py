@@ -160,12 +160,6 @@ def main(args=None) -> None:
         bag = require_bag(ns.bag)
         if not math.isfinite(ns.rate) or ns.rate < 0:
             raise StnsRosError(f"--rate must be a finite number >= 0, got {ns.rate}")
-        if ns.recover:
-            from stns_ros.bag import recover
-
-            print(f"recovered: {recover(bag)} messages in {bag}")
-        run = load_run(bag)
-        summary = summarize(run, bag)
         out = Path(ns.out) if ns.out else bag.resolve().parent / "replay"
         if out.resolve() == bag.resolve().parent or (out / "run_config.json").exists():
             # the bring-up's own summary.json and plots are the run's record: keep them
@@ -174,6 +168,12 @@ def main(args=None) -> None:
                 "summary.json and plots would be overwritten: choose another folder")
         if out.exists() and not out.is_dir():
             raise StnsRosError(f"--out {str(out)!r} is a file, not a folder")
+        if ns.recover:
+            from stns_ros.bag import recover
+
+            print(f"recovered: {recover(bag)} messages in {bag}")
+        run = load_run(bag)
+        summary = summarize(run, bag)
         try:
             out.mkdir(parents=True, exist_ok=True)
         except OSError as e:
