@@ -92,6 +92,11 @@ def save_agent(agent: StnsAgent, path: str | PathLike) -> None:
 def load_agent(cls, path: str | PathLike) -> StnsAgent:
     path = os.fspath(path)
     try:
+        with open(path, "rb") as f:
+            head = f.read(4)
+        if head != b"PK\x03\x04":  # np.load would try it as a pickle and say so, not why
+            raise StnsStateError(f"{path}: not a readable learner file (not an .npz archive: it "
+                                 f"starts with {head!r}, not b'PK\\x03\\x04')")
         with np.load(path, allow_pickle=False) as data:
             arrays = {name: data[name] for name in data.files}
     except FileNotFoundError as exc:

@@ -57,8 +57,11 @@ def test_corrupt_or_incompatible_files_are_refused(tmp_path):
     agent.save(good)
     garbage = tmp_path / "garbage.npz"
     garbage.write_bytes(b"not a zip file at all")
-    with pytest.raises(StnsStateError, match="garbage.npz: not a readable learner file"):
+    with pytest.raises(StnsStateError, match="garbage.npz: not a readable learner file") as e:
         StnsAgent.load(garbage)
+    # random bytes are not offered to the pickle loader: the message says what the file is
+    assert "not an .npz archive: it starts with b'not '" in str(e.value)
+    assert "pickle" not in str(e.value)
     truncated = tmp_path / "truncated.npz"
     truncated.write_bytes(good.read_bytes()[:200])
     with pytest.raises(StnsStateError, match="truncated.npz"):
