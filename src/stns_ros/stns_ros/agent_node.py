@@ -36,7 +36,7 @@ from stns_ros import topics as T
 from stns_ros.conversion import UNIT_M, m_to_u, set_stamp, stamp_ns
 from stns_ros.driver import AgentDriver, action_velocities, dumps, make_agent, record_to_dict
 from stns_ros.errors import StnsRosError
-from stns_ros.params import check_choice, declare, result
+from stns_ros.params import TUNING, check_choice, declare, declare_tuning, result
 from stns_ros.runtime import run_node
 from stns_ros.sim_node import FRAME_QOS
 
@@ -88,26 +88,14 @@ class StnsAgentNode(Node):
                                 read_only=True)
         p["state_out"] = declare(self, "state_out", "", "Save the learner here on shutdown.",
                                  read_only=True)
-        p["watchdog_timeout"] = declare(
-            self, "watchdog_timeout", 1.0,
-            "Stop the rover (zero command) when no frame came for this many wall seconds.",
-            range=(0.05, 60.0))
-        p["explain_every"] = declare(
-            self, "explain_every", 10,
-            "Publish /stns/plan and /stns/situation every this many behaviour steps.",
-            range=(1, 100000))
-        p["markers_every"] = declare(
-            self, "markers_every", 100,
-            "Publish /stns/situations every this many behaviour steps.", range=(1, 100000))
+        for name in TUNING["stns_agent"]:
+            p[name] = declare_tuning(self, "stns_agent", name)
         p["stats_out"] = declare(
             self, "stats_out", "", "Write wall time and rates of the run here as JSON ('' = off).",
             read_only=True)
         p["wait_for_recorder"] = declare(
             self, "wait_for_recorder", False,
             "Answer no frame before /stns/steps has a subscriber (the recorder).", read_only=True)
-        p["progress_every"] = declare(self, "progress_every", 250,
-                                      "Log progress every this many behaviour steps.",
-                                      range=(1, 10**9))
         self.params = p
         for name in ("state_out", "stats_out"):  # found out at shutdown, the learner would be lost
             folder = os.path.dirname(os.path.abspath(p[name])) if p[name] else ""

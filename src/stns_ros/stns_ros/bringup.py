@@ -22,7 +22,12 @@ import time
 from pathlib import Path
 
 from stns_ros.errors import StnsRosError
-from stns_ros.run_config import load_run_config, node_parameters, write_params_file
+from stns_ros.run_config import (
+    load_run_config,
+    node_parameters,
+    unreached_faults,
+    write_params_file,
+)
 
 RUN_MARK = ".stns_run"
 STOP_TIMEOUT = 15.0
@@ -36,6 +41,11 @@ def _pdeathsig() -> None:
         ctypes.CDLL("libc.so.6", use_errno=True).prctl(1, signal.SIGTERM)  # PR_SET_PDEATHSIG
     except (OSError, AttributeError):
         pass
+
+
+def warn(text: str) -> None:
+    """A line on stderr about a setting that does not do what it seems to; the run goes on."""
+    sys.stderr.write(f"stns_bringup: warning: {text}\n")
 
 
 class Bringup:
@@ -66,7 +76,9 @@ class Bringup:
         (out / RUN_MARK).write_text("stns_bringup run folder (replaced by the next run here)\n")
         run_json = json.dumps(self.cfg, sort_keys=True)
         (out / "run_config.json").write_text(json.dumps(self.cfg, indent=2, sort_keys=True))
-        params = node_parameters(self.cfg, out.resolve(), run_json)
+        params, notes = node_parameters(self.cfg, out.resolve(), run_json)
+        for note in notes:
+            warn(note)
         params["stns_agent"]["stats_out"] = str((out / "agent_stats.json").resolve())
         params["stns_agent"]["wait_for_recorder"] = bool(self.cfg["recording"]["enabled"])
         path = out / "params.yaml"
@@ -167,7 +179,12 @@ def finish(cfg: dict, out: Path, rc: int, quiet: bool) -> int:
 
     bag = out / "bag"
     if not cfg["recording"]["enabled"] or not bag.exists():
-        sys.stderr.write("stns_bringup: no bag recorded, no summary\n")
+        why = "recording is disabled" if not cfg["recording"]["enabled"] else "no bag was written"
+        sys.stderr.write(f"stns_bringup: {why}: no bag, no summary\n")
+        print(f"run folder: {out}")
+        print(f"  logs:     {out / 'logs'}")
+        if cfg["learner"]["save_state"] and (out / "learner_state").exists():
+            print(f"  learner:  {out / 'learner_state'}")
         return rc or 0
     if not (bag / "metadata.yaml").exists():  # the recorder was killed: keep its prefix
         from stns_ros.bag import recover
@@ -205,6 +222,8 @@ def main(args=None) -> None:
             if ns.steps < 1:
                 raise StnsRosError(f"--steps must be >= 1, got {ns.steps}")
             cfg["run"]["steps"] = ns.steps
+        for text in unreached_faults(cfg):
+            warn(text)
         if ns.headless:
             from stns_ros.headless import run_headless
 

@@ -20,7 +20,7 @@ from stns_ros import topics as T
 from stns_ros.driver import dumps
 from stns_ros.errors import StnsRosError
 from stns_ros.faults import FaultScenario, ScenarioClock, load_scenario, parse_scenario, ramp_points
-from stns_ros.params import FAULT_NEUTRAL, declare
+from stns_ros.params import FAULT_NEUTRAL, declare, declare_tuning
 from stns_ros.runtime import run_node
 
 
@@ -33,9 +33,7 @@ class FaultInjectorNode(Node):
                          "The scenario as JSON (used when 'scenario' is empty).", read_only=True)
         target = declare(self, "sim_node", "rover_sim",
                          "Name of the simulator node whose parameters are set.", read_only=True)
-        self.check_period = declare(self, "check_period", 0.01,
-                                    "Wall seconds between checks of sim-time triggers.",
-                                    range=(0.001, 1.0), read_only=True)
+        self.check_period = declare_tuning(self, "fault_injector", "check_period")
         if path:
             self.scenario = load_scenario(path)
         elif inline:

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from dataclasses import dataclass
 from typing import Any
 
 from rcl_interfaces.msg import (
@@ -14,6 +15,8 @@ from rcl_interfaces.msg import (
 )
 from rclpy.node import Node
 from rclpy.parameter import Parameter
+
+from stns_ros.topics import OTHER_TOPICS
 
 # Fault parameters of the simulator node: name -> (lower, upper, lower_open, description).
 FAULT_PARAMS: dict[str, tuple[float, float, bool, str]] = {
@@ -32,6 +35,85 @@ FAULT_NEUTRAL = {
     "goal_sensor_noise_std_m": 0.0,
     "range_sensor_noise_std_m": 0.0,
 }
+
+
+@dataclass(frozen=True)
+class Tuning:
+    """A node parameter left to the tuning file (config/nodes.yaml): the run config does not
+    set it. The nodes declare it from here and `check_tuning` checks a file's value of it."""
+
+    default: bool | int | float | tuple[str, ...]
+    description: str
+    range: tuple[float, float] | None = None
+    read_only: bool = False
+
+
+TUNING: dict[str, dict[str, Tuning]] = {
+    "rover_sim": {
+        "publish_ranges": Tuning(
+            True, "Publish the six sector ranges every tick (always on when the task's input "
+            "has them)."),
+        "resend_period": Tuning(
+            0.25, "Lockstep: re-send an unanswered frame after this many wall seconds.",
+            (0.01, 10.0)),
+        "record_topics": Tuning(
+            OTHER_TOPICS,
+            "Topics of the other nodes to record (the sim's own topics are always recorded).",
+            read_only=True),
+    },
+    "stns_agent": {
+        "watchdog_timeout": Tuning(
+            1.0, "Stop the rover (zero command) when no frame came for this many wall seconds.",
+            (0.05, 60.0)),
+        "explain_every": Tuning(
+            10, "Publish /stns/plan and /stns/situation every this many behaviour steps.",
+            (1, 100000)),
+        "markers_every": Tuning(
+            100, "Publish /stns/situations every this many behaviour steps.", (1, 100000)),
+        "progress_every": Tuning(
+            250, "Log progress every this many behaviour steps.", (1, 10**9)),
+    },
+    "fault_injector": {
+        "check_period": Tuning(
+            0.01, "Wall seconds between checks of sim-time triggers.", (0.001, 1.0),
+            read_only=True),
+    },
+}
+
+
+def declare_tuning(node: Node, table: str, name: str) -> Any:
+    """Declare tuning parameter `name` as ``TUNING[table]`` describes it (`table` is the
+    node's default name: a remapped node keeps its parameters)."""
+    t = TUNING[table][name]
+    default = list(t.default) if isinstance(t.default, tuple) else t.default
+    return declare(node, name, default, t.description, range=t.range, read_only=t.read_only)
+
+
+def check_tuning(node: str, name: str, value: Any) -> tuple[Any, str | None]:
+    """(value as the node declares it, None) if `value` suits tuning parameter `name` of
+    `node`, else (value, the reason). An integer becomes a float for a float parameter: ROS
+    would refuse 1 for a double."""
+    t = TUNING[node][name]
+    want = t.default
+    if isinstance(want, bool):
+        ok = isinstance(value, bool)
+        kind = "true or false"
+    elif isinstance(want, tuple):
+        ok = isinstance(value, list) and all(isinstance(v, str) for v in value)
+        kind = "a list of strings"
+    elif isinstance(want, int):
+        ok = isinstance(value, int) and not isinstance(value, bool)
+        kind = "an integer"
+    else:
+        ok = (isinstance(value, int | float) and not isinstance(value, bool)
+              and math.isfinite(value))
+        kind = "a finite number"
+        value = float(value) if ok else value
+    if not ok:
+        return value, f"{name} must be {kind}, got {value!r}"
+    if t.range is not None and not t.range[0] <= value <= t.range[1]:
+        return value, f"{name} must be in [{t.range[0]:g}, {t.range[1]:g}], got {value!r}"
+    return value, None
 
 
 def declare(

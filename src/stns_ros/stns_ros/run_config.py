@@ -17,6 +17,7 @@ Seeds: ``run.seed`` K gives the world and learner seeds of trial set 0 of
 from __future__ import annotations
 
 import copy
+import re
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
@@ -26,7 +27,7 @@ import yaml
 from stns_ros.driver import seeds_from_run_seed
 from stns_ros.errors import StnsRosError
 from stns_ros.faults import FaultScenario, load_scenario, parse_scenario, read_yaml
-from stns_ros.params import FAULT_PARAMS, check_fault
+from stns_ros.params import FAULT_NEUTRAL, FAULT_PARAMS, TUNING, check_fault, check_tuning
 
 SCHEMA: dict[str, dict[str, Any]] = {
     "run": {"name": "run", "seed": 0, "steps": 3000, "mode": "lockstep", "real_time_factor": 1.0},
@@ -35,6 +36,7 @@ SCHEMA: dict[str, dict[str, Any]] = {
     "recording": {"enabled": True, "compression": "zstd", "chunk_size": 262144},
 }
 TOP_KEYS = set(SCHEMA) | {"faults", "nodes"}
+NAME_RE = re.compile(r"[A-Za-z0-9][A-Za-z0-9._-]*")  # run.name is a folder name under runs/
 
 
 def _int(key: str, v: Any, lo: int, hi: int | None = None) -> int:
@@ -67,7 +69,9 @@ def parse_run_config(data: Any, source: str = "", base_dir: Path | None = None) 
         raise StnsRosError(f"{where}unknown key(s) {unknown}; known: {sorted(TOP_KEYS)}")
     cfg: dict[str, Any] = {}
     for section, defaults in SCHEMA.items():
-        given = data.get(section) or {}
+        given = data.get(section)
+        if given is None:  # an empty section (``run:``) takes the defaults; false or 0 does not
+            given = {}
         if not isinstance(given, Mapping):
             raise StnsRosError(f"{where}{section} must be a mapping, got {given!r}")
         extra = sorted(set(given) - set(defaults))
@@ -76,8 +80,10 @@ def parse_run_config(data: Any, source: str = "", base_dir: Path | None = None) 
         cfg[section] = {**copy.deepcopy(defaults), **copy.deepcopy(dict(given))}
     try:
         run, world, learner, rec = cfg["run"], cfg["world"], cfg["learner"], cfg["recording"]
-        if not isinstance(run["name"], str) or not run["name"]:
-            raise StnsRosError(f"run.name must be a non-empty string, got {run['name']!r}")
+        if not isinstance(run["name"], str) or not NAME_RE.fullmatch(run["name"]):
+            raise StnsRosError(
+                f"run.name must be a plain folder name (letters, digits, '.', '_', '-'; "
+                f"--out takes a path), got {run['name']!r}")
         _int("run.seed", run["seed"], 0, 2**32 - 1)
         _int("run.steps", run["steps"], 1)
         _choice("run.mode", run["mode"], ("lockstep", "free_running"))
@@ -100,6 +106,7 @@ def parse_run_config(data: Any, source: str = "", base_dir: Path | None = None) 
             reason = check_fault(name, value)
             if reason:
                 raise StnsRosError(f"world.faults.{name}: {reason}")
+        seed_given = learner["seed"] is not None
         ws, ls = seeds_from_run_seed(run["seed"])
         world["seed"] = ws if world["seed"] is None else _int(
             "world.seed", world["seed"], 0, 2**32 - 1)
@@ -117,28 +124,31 @@ def parse_run_config(data: Any, source: str = "", base_dir: Path | None = None) 
             raise StnsRosError(f"recording.enabled must be true or false, got {rec['enabled']!r}")
         _choice("recording.compression", rec["compression"], ("zstd", "lz4", "none"))
         _int("recording.chunk_size", rec["chunk_size"], 1024, 2**26)
-        _check_library_configs(world, learner)
+        _check_library_configs(world, learner, seed_given)
         faults = data.get("faults")
         if faults is None:
             scenario = FaultScenario("none")
         elif isinstance(faults, str):
+            if not faults.strip():
+                raise StnsRosError("faults must be a scenario file, an inline scenario or "
+                                   "null, got ''")
             scenario = load_scenario(_resolve(base, faults))
         else:
             scenario = parse_scenario(faults, "faults")
         cfg["faults"] = scenario.to_dict()
         nodes = data.get("nodes")
         if nodes is not None:
-            if not isinstance(nodes, str):
+            if not isinstance(nodes, str) or not nodes.strip():
                 raise StnsRosError(f"nodes must be the path of a ROS parameter file, got {nodes!r}")
             nodes = _resolve(base, nodes)
-            load_node_params(nodes)
         cfg["nodes"] = nodes
+        node_parameters(cfg, base, "")  # checks the tuning file against what the run sets
     except StnsRosError as e:
         raise StnsRosError(f"{where}{e}") from None
     return cfg
 
 
-def _check_library_configs(world: dict, learner: dict) -> None:
+def _check_library_configs(world: dict, learner: dict, seed_given: bool) -> None:
     from rover_sim import RoverSimError, WorldConfig
     from stns_core import StnsConfig, StnsError
 
@@ -147,16 +157,27 @@ def _check_library_configs(world: dict, learner: dict) -> None:
     except (RoverSimError, TypeError) as e:
         raise StnsRosError(f"world.overrides: {e}") from None
     try:
-        StnsConfig.preset(learner["preset"], **{**learner["overrides"], "seed": learner["seed"]})
+        want = StnsConfig.preset(learner["preset"], **{**learner["overrides"],
+                                                       "seed": learner["seed"]}).to_dict()
     except Exception as e:  # StnsError subclasses; the library's message names the field
         raise StnsRosError(f"learner.overrides: {e}") from None
     if learner["state_in"]:  # read it now: a bad file would otherwise stop the agent mid-run
         from stns_ros.driver import make_agent
 
         try:
-            make_agent({}, wc.observation_dim, learner["state_in"])
+            saved = make_agent({}, wc.observation_dim, learner["state_in"]).config.to_dict()
         except (StnsError, StnsRosError, OSError) as e:
             raise StnsRosError(f"learner.state_in: {e}") from None
+        # a saved learner goes on with the settings it was saved with: an override that
+        # differs would be recorded in params.yaml yet never used
+        given = [*learner["overrides"], *(["seed"] if seed_given else [])]
+        differ = [f"{'learner.seed' if k == 'seed' else 'learner.overrides.' + k} = {want[k]!r}"
+                  f" (saved: {saved.get(k)!r})" for k in given if saved.get(k) != want[k]]
+        if differ:
+            raise StnsRosError(
+                f"learner.state_in {learner['state_in']!r} keeps the settings it was saved "
+                f"with, and these differ: {'; '.join(differ)}; drop them, or start a new "
+                "learner (state_in: \"\")")
 
 
 def load_run_config(path: str | Path) -> dict[str, Any]:
@@ -187,17 +208,24 @@ NODE_NAMES = ("rover_sim", "stns_agent", "fault_injector")
 
 
 def node_parameters(cfg: Mapping[str, Any], out_dir: Path, run_config_json: str
-                    ) -> dict[str, dict[str, Any]]:
-    """The ROS parameters of each node of the run (tuning file first, run config wins)."""
+                    ) -> tuple[dict[str, dict[str, Any]], list[str]]:
+    """The ROS parameters of each node of the run, and a note for each tuning-file value
+    that the run config replaces. The tuning file (``nodes``) may hold the `TUNING`
+    parameters and the ones the run sets; anything else, and a bad tuning value, is a
+    `StnsRosError` naming the node, the parameter and the value."""
     import json
 
     run, world, learner, rec = cfg["run"], cfg["world"], cfg["learner"], cfg["recording"]
-    base = load_node_params(cfg["nodes"]) if cfg.get("nodes") else {}
-    from stns_core import StnsConfig
+    from stns_core import StnsAgent, StnsConfig
 
-    lc = StnsConfig.preset(learner["preset"], **{**learner["overrides"], "seed": learner["seed"]})
+    if learner["state_in"]:  # the agent goes on with the saved learner's own settings
+        lc = StnsAgent.load(learner["state_in"]).config
+    else:
+        lc = StnsConfig.preset(learner["preset"], **{**learner["overrides"],
+                                                     "seed": learner["seed"]})
     overrides = json.dumps(world["overrides"], sort_keys=True)
     sim = {
+        "use_sim_time": False,  # it is the clock
         "world_preset": world["preset"],
         "world_overrides": overrides,
         "seed": world["seed"],
@@ -207,7 +235,7 @@ def node_parameters(cfg: Mapping[str, Any], out_dir: Path, run_config_json: str
         "record_compression": rec["compression"],
         "record_chunk_size": rec["chunk_size"],
         "run_config": run_config_json,
-        **{k: float(v) for k, v in world["faults"].items()},
+        **{k: float(world["faults"].get(k, v)) for k, v in FAULT_NEUTRAL.items()},
     }
     agent = {
         "use_sim_time": True,
@@ -218,17 +246,91 @@ def node_parameters(cfg: Mapping[str, Any], out_dir: Path, run_config_json: str
         "max_behaviour_steps": run["steps"],
         "state_in": learner["state_in"],
         "state_out": str(out_dir / "learner_state") if learner["save_state"] else "",
+        "stats_out": "",
+        "wait_for_recorder": False,
     }
     injector = {
         "use_sim_time": True,  # at_time triggers and the sim-time stamps of the events
+        "scenario": "",  # a file here would replace the run's scenario
         "scenario_json": json.dumps(cfg["faults"]),
         "sim_node": "rover_sim",
     }
-    return {
-        "rover_sim": {**base.get("rover_sim", {}), **sim},
-        "stns_agent": {**base.get("stns_agent", {}), **agent},
-        "fault_injector": {**base.get("fault_injector", {}), **injector},
-    }
+    run_set = {"rover_sim": sim, "stns_agent": agent, "fault_injector": injector}
+    tuning, notes = (check_node_params(load_node_params(cfg["nodes"]), cfg["nodes"], run_set)
+                     if cfg.get("nodes") else ({}, []))
+    return {n: {**tuning.get(n, {}), **run_set[n]} for n in NODE_NAMES}, notes
+
+
+# where each run-set parameter comes from, for the notes on replaced tuning-file values
+_SOURCE = {"seed": "world.seed / run.seed", "mode": "run.mode",
+           "real_time_factor": "run.real_time_factor", "world_preset": "world.preset",
+           "world_overrides": "world.overrides", "learner_preset": "learner.preset",
+           "max_behaviour_steps": "run.steps", "state_in": "learner.state_in",
+           "scenario": "faults", "scenario_json": "faults",
+           **{k: f"world.faults.{k}" for k in FAULT_PARAMS}}
+
+
+def _source(node: str, name: str) -> str:
+    import dataclasses
+
+    from stns_core import StnsConfig
+
+    if node == "stns_agent" and name == "seed":
+        return "learner.seed / run.seed"
+    if node == "stns_agent" and name in {f.name for f in dataclasses.fields(StnsConfig)}:
+        return f"learner.overrides.{name}"
+    return _SOURCE.get(name, "the run config")
+
+
+def check_node_params(given: Mapping[str, Mapping[str, Any]], source: str,
+                      run_set: Mapping[str, Mapping[str, Any]]
+                      ) -> tuple[dict[str, dict[str, Any]], list[str]]:
+    """The tuning values of a node parameter file (`load_node_params`), checked, with ints
+    made floats where the node declares a double; and a note for each value the run sets
+    otherwise (``run_set``). Unknown nodes and parameters are errors: a misspelt name would
+    otherwise be dropped without a word."""
+    tuning: dict[str, dict[str, Any]] = {}
+    notes: list[str] = []
+    for node, params in given.items():
+        if node not in TUNING:
+            raise StnsRosError(f"{source}: unknown node {node!r}; known: {', '.join(NODE_NAMES)}")
+        tuning[node] = {}
+        for name, value in params.items():
+            if name in TUNING[node]:
+                value, reason = check_tuning(node, name, value)
+                if reason:
+                    raise StnsRosError(f"{source}: {node}.{reason}")
+                tuning[node][name] = value
+            elif name in run_set[node]:
+                ours = run_set[node][name]
+                same = value == ours and type(value) is type(ours) or (
+                    isinstance(ours, float) and isinstance(value, int | float)
+                    and not isinstance(value, bool) and float(value) == ours)
+                if not same:
+                    where = _source(node, name)
+                    notes.append(f"{source}: {node}.{name} = {value!r} is replaced by the run's "
+                                 f"{_short(ours)} (set it in {where})")
+            else:
+                known = sorted({*TUNING[node], *run_set[node]})
+                raise StnsRosError(f"{source}: {node}: unknown parameter {name!r}; known: "
+                                   f"{', '.join(known)}")
+    return tuning, notes
+
+
+def _short(v: Any) -> str:
+    text = repr(v)
+    return text if len(text) <= 60 else text[:57] + "..."
+
+
+def unreached_faults(cfg: Mapping[str, Any]) -> list[str]:
+    """The scenario's at_step events that no behaviour step of the run would feel: an event
+    at step N changes steps N+1 on. at_time events are not judged (sim seconds per behaviour
+    step vary)."""
+    steps = cfg["run"]["steps"]
+    return [f"faults[{i}] at_step {e['at_step']} does not come before the end of the run "
+            f"({steps} behaviour steps): it changes nothing"
+            for i, e in enumerate(cfg["faults"]["faults"])
+            if e.get("at_step") is not None and e["at_step"] >= steps]
 
 
 def write_params_file(params: Mapping[str, Mapping[str, Any]], path: Path) -> None:

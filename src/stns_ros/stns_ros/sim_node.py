@@ -29,7 +29,14 @@ from std_msgs.msg import String
 from stns_ros import topics as T
 from stns_ros.conversion import UNIT_M, m_to_u, set_stamp, stamp_ns, tick_ns, yaw_quaternion
 from stns_ros.errors import StnsRosError
-from stns_ros.params import FAULT_PARAMS, check_choice, check_fault, declare, result
+from stns_ros.params import (
+    FAULT_PARAMS,
+    check_choice,
+    check_fault,
+    declare,
+    declare_tuning,
+    result,
+)
 from stns_ros.recording import LATCHED_QOS, TopicRecorder
 from stns_ros.runtime import run_node
 
@@ -55,13 +62,8 @@ class RoverSimNode(Node):
         p["real_time_factor"] = declare(
             self, "real_time_factor", 1.0, "Free-running: sim seconds per wall second.",
             range=(0.01, 100.0))
-        p["publish_ranges"] = declare(
-            self, "publish_ranges", True,
-            "Publish the six sector ranges every tick (always on when the task's input has them).")
-        p["resend_period"] = declare(
-            self, "resend_period", 0.25,
-            "Lockstep: re-send an unanswered frame after this many wall seconds.",
-            range=(0.01, 10.0))
+        for name in ("publish_ranges", "resend_period", "record_topics"):
+            p[name] = declare_tuning(self, "rover_sim", name)
         p["record_path"] = declare(
             self, "record_path", "", "rosbag2 directory to record the run into ('' = off).",
             read_only=True)
@@ -71,10 +73,6 @@ class RoverSimNode(Node):
         p["record_chunk_size"] = declare(self, "record_chunk_size", 262144,
                                          "MCAP chunk size, bytes.", range=(1024, 2**26),
                                          read_only=True)
-        p["record_topics"] = declare(
-            self, "record_topics", list(T.OTHER_TOPICS),
-            "Topics of the other nodes to record (the sim's own topics are always recorded).",
-            read_only=True)
         p["run_config"] = declare(
             self, "run_config", "{}",
             "JSON of the whole run config; published latched on /stns/run_config and recorded.",

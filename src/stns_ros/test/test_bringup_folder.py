@@ -45,3 +45,26 @@ def test_an_out_that_cannot_be_made_is_named(tmp_path):
     with pytest.raises(StnsRosError, match=r"afile/run': cannot make the run folder"):
         Bringup(cfg, tmp_path / "afile" / "run").prepare()
     assert (tmp_path / "afile").read_text() == "kept"
+
+
+def test_replaced_tuning_values_are_warned_of_on_stderr(tmp_path, capsys):
+    import yaml
+
+    nodes = tmp_path / "nodes.yaml"
+    nodes.write_text(yaml.safe_dump({"stns_agent": {"ros__parameters": {"learner_preset": "exp3"}}}))
+    cfg = parse_run_config({"run": {"steps": 10}, "nodes": str(nodes)}, "", tmp_path)
+    params = yaml.safe_load(Bringup(cfg, tmp_path / "run").prepare().read_text())
+    assert params["stns_agent"]["ros__parameters"]["learner_preset"] == "exp1"
+    assert capsys.readouterr().err == (
+        f"stns_bringup: warning: {nodes}: stns_agent.learner_preset = 'exp3' is replaced by "
+        "the run's 'exp1' (set it in learner.preset)\n")
+
+
+def test_a_run_without_recording_still_names_its_folder(tmp_path, capsys):
+    from stns_ros.bringup import finish
+
+    cfg = parse_run_config({"run": {"steps": 10}, "recording": {"enabled": False}}, "", tmp_path)
+    assert finish(cfg, tmp_path / "run", 0, quiet=True) == 0
+    out, err = capsys.readouterr()
+    assert err == "stns_bringup: recording is disabled: no bag, no summary\n"
+    assert out.splitlines()[0] == f"run folder: {tmp_path / 'run'}"
