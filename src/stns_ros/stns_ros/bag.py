@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import struct
 from collections.abc import Iterator, Mapping
 from dataclasses import dataclass
@@ -98,7 +99,8 @@ class _RecordStream:
 
 
 class BagWriter:
-    """Write a rosbag2 directory holding one MCAP file. A context manager; `close()` is idempotent."""
+    """Write a rosbag2 directory holding one MCAP file (``<dir>.mcap`` unless `file_name` is
+    given). A context manager; `close()` is idempotent."""
 
     def __init__(
         self,
@@ -107,6 +109,7 @@ class BagWriter:
         compression: str = "zstd",
         chunk_size: int = 256 * 1024,
         custom_data: Mapping[str, str] | None = None,
+        file_name: str | None = None,
     ) -> None:
         if compression not in _COMPRESSION:
             raise StnsRosError(
@@ -118,7 +121,7 @@ class BagWriter:
         if self.path.exists():
             raise StnsRosError(f"bag directory {str(self.path)!r} exists already, not overwriting")
         self.path.mkdir(parents=True)
-        self.mcap_path = self.path / f"{self.path.name}.mcap"
+        self.mcap_path = self.path / (file_name or f"{self.path.name}.mcap")
         self._file = _RecordStream(self.mcap_path)
         self._writer = Writer(
             self._file, chunk_size=int(chunk_size), compression=_COMPRESSION[compression]
@@ -257,6 +260,19 @@ def mcap_file(bag: str | os.PathLike[str]) -> Path:
     return files[0]
 
 
+def bag_dir(bag: str | os.PathLike[str]) -> Path | None:
+    """The rosbag2 directory a bag path names: the path itself if it is a directory, the
+    folder of an .mcap file if that folder is a bag (it has metadata.yaml, or the file is
+    named after it as rosbag2 and `BagWriter` name it, as a killed recorder leaves it);
+    None for a bare .mcap file."""
+    p = Path(bag)
+    if p.is_dir():
+        return p
+    folder = p.parent
+    named = re.fullmatch(rf"{re.escape(folder.name)}(_\d+)?\.mcap", p.name)
+    return folder if named or (folder / "metadata.yaml").is_file() else None
+
+
 def read_messages(bag: str | os.PathLike[str], topics: set[str] | None = None) -> Iterator[BagMessage]:
     """Messages of a bag in file order. Reads a complete file through its summary, and the
     complete records of a truncated one (a killed recorder) in a linear scan. A file that is
@@ -264,12 +280,8 @@ def read_messages(bag: str | os.PathLike[str], topics: set[str] | None = None) -
     `StnsRosError` naming the file."""
     path = mcap_file(bag)
     with open(path, "rb") as f:
-        try:
-            reader = make_reader(f, validate_crcs=True)
-            summary = reader.get_summary()
-        except (McapError, EOFError, ValueError, AssertionError, struct.error):
-            summary = None
-        if summary is not None:
+        reader = _complete_reader(f)
+        if reader is not None:
             n = 0
             try:
                 for schema, channel, message in reader.iter_messages(
@@ -284,6 +296,23 @@ def read_messages(bag: str | os.PathLike[str], topics: set[str] | None = None) -
                 ) from None
             return
     yield from _scan_prefix(path, topics)
+
+
+def _complete_reader(f: Any) -> Any:
+    """A CRC-checking reader of an MCAP file that ends with its summary and footer, as a
+    closed writer leaves it; None for any other file (cut short, or not MCAP at all:
+    `_scan_prefix` tells which). `make_reader` reads the magic, so it is guarded too."""
+    try:
+        reader = make_reader(f, validate_crcs=True)
+        return reader if reader.get_summary() is not None else None
+    except (McapError, EOFError, ValueError, AssertionError, struct.error):
+        return None
+
+
+def has_summary(bag: str | os.PathLike[str]) -> bool:
+    """Whether the bag's MCAP file ends with its summary and footer (only those are read)."""
+    with open(mcap_file(bag), "rb") as f:
+        return _complete_reader(f) is not None
 
 
 def _scan_prefix(path: Path, topics: set[str] | None) -> Iterator[BagMessage]:
@@ -357,31 +386,125 @@ def json_custom(value: Any) -> str:
     return json.dumps(value, sort_keys=True, separators=(",", ":"))
 
 
-def recover(bag: str | os.PathLike[str]) -> int:
-    """Rewrite the readable prefix of a bag whose recorder was killed (no summary, no
-    metadata.yaml) into a complete rosbag2 directory in place; return the messages kept.
-    A complete bag is left alone (returns its message count)."""
+def _recorded(bag: str | os.PathLike[str]) -> tuple[int, dict[str, tuple[str, int]]]:
+    """(message_count, {topic: (type, message_count)}) as the bag's metadata.yaml lists them;
+    `StnsRosError` naming the file when it does not."""
+    info = read_metadata(bag)
+    try:
+        topics = {t["topic_metadata"]["name"]: (str(t["topic_metadata"]["type"]),
+                                                int(t["message_count"]))
+                  for t in info["topics_with_message_count"]}
+        return int(info["message_count"]), topics
+    except (KeyError, TypeError, ValueError):
+        raise StnsRosError(
+            f"{str(Path(bag) / 'metadata.yaml')!r} does not list message_count and, for every "
+            "topic, its name, type and message_count (topics_with_message_count)") from None
+
+
+def _count(bag: str | os.PathLike[str]) -> dict[str, int]:
+    counts: dict[str, int] = {}
+    for m in read_messages(bag):
+        counts[m.topic] = counts.get(m.topic, 0) + 1
+    return counts
+
+
+def check_complete(bag: str | os.PathLike[str], counts: Mapping[str, int] | None = None
+                   ) -> str | None:
+    """None when the bag's MCAP file has its summary and holds what metadata.yaml lists;
+    else why not, with the readable and recorded message counts (per topic where they
+    differ). `counts` are the readable messages per topic if the caller has read them."""
+    counts = _count(bag) if counts is None else counts
+    n = sum(counts.values())
+    name = mcap_file(bag).name
+    complete = has_summary(bag)
+    if not (Path(bag) / "metadata.yaml").is_file():
+        if complete:
+            return None  # a bare .mcap file: nothing to compare with
+        return (f"bag {str(bag)!r} is cut short: {name} has no MCAP summary and there is no "
+                f"metadata.yaml (the recorder was killed); {n} messages readable, how many "
+                "were recorded is unknown; `stns_replay BAG --recover` rewrites them as a "
+                "complete bag")
+    total, topics = _recorded(bag)
+    short = ", ".join(f"{t} {counts.get(t, 0)} of {c}" for t, (_, c) in topics.items()
+                      if counts.get(t, 0) != c)
+    detail = f" ({short})" if short else ""
+    if not complete:
+        # metadata.yaml is written after the summary: the file was cut after the bag was closed
+        return (f"bag {str(bag)!r} is truncated: {name} has lost its MCAP summary and footer; "
+                f"{n} of {total} messages readable{detail}; `stns_replay BAG --recover` "
+                f"rewrites the readable part as a complete bag and keeps the original as "
+                f"{name}{_ORIGINAL}")
+    if n != total or short:
+        return f"bag {str(bag)!r}: {n} of {total} messages readable{detail}"
+    return None
+
+
+_ORIGINAL = ".orig"
+
+
+@dataclass(frozen=True)
+class Recovery:
+    """What `recover` found and did: `kept` messages are in the bag now, of `recorded` (the
+    metadata.yaml count; None when the recorder was killed before writing it); `originals`
+    hold the bytes as recorded (the MCAP file and metadata.yaml, from this or an earlier
+    recovery); `rewritten` is False for a complete bag, which is left alone."""
+
+    kept: int
+    recorded: int | None
+    originals: tuple[Path, ...] = ()
+    rewritten: bool = False
+
+
+def recover(bag: str | os.PathLike[str]) -> Recovery:
+    """Rewrite the readable records of a bag cut short into a complete rosbag2 directory in
+    place. Cut short: its MCAP file has no summary (a killed recorder, which leaves no
+    metadata.yaml either, or a file truncated after the bag was closed) or metadata.yaml is
+    missing. The original file and metadata.yaml are renamed to ``<name>.orig`` beside the
+    new ones, never overwritten (an earlier recovery's are refused); the topics and custom
+    data of the old metadata.yaml are kept. A complete bag is left alone."""
     path = Path(bag)
-    if (path / "metadata.yaml").exists():
-        return int(read_metadata(path)["message_count"])
+    if not path.is_dir():
+        raise StnsRosError(f"--recover rewrites a rosbag2 directory; {str(path)!r} is not one "
+                           "(put a bare .mcap file in a folder of its own first)")
+    meta = path / "metadata.yaml"
+    recorded = _recorded(path) if meta.is_file() else None
     src = mcap_file(path)
+    originals = (src.with_name(src.name + _ORIGINAL), meta.with_name(meta.name + _ORIGINAL))
+    if recorded is not None and has_summary(path):
+        return Recovery(recorded[0], recorded[0], tuple(p for p in originals if p.exists()))
+    if recorded is None:
+        originals = originals[:1]
     tmp = path.with_name(path.name + ".recovering")
-    if tmp.exists():
-        raise StnsRosError(f"{str(tmp)!r} exists (an earlier recovery was interrupted)")
+    for p in (*originals, tmp):
+        if p.exists():  # never overwrite what an earlier recovery kept
+            raise StnsRosError(f"{str(p)!r} exists (from an earlier recovery): move it away first")
+    n = _rewrite(src, tmp, recorded, read_metadata(path).get("custom_data") if recorded else None)
+    # the original bytes are renamed, never deleted; metadata.yaml comes last, so an
+    # interruption leaves a bag that is again recoverable (and its originals refused)
+    src.rename(originals[0])
+    if recorded is not None:
+        meta.rename(originals[1])
+    (tmp / src.name).rename(src)
+    (tmp / meta.name).rename(meta)
+    tmp.rmdir()
+    return Recovery(n, recorded[0] if recorded else None, originals, rewritten=True)
+
+
+def _rewrite(src: Path, tmp: Path, recorded: tuple[int, dict[str, tuple[str, int]]] | None,
+             custom: Any) -> int:
+    """Write the readable messages of `src` as a complete bag `tmp` (file named as `src`);
+    return how many."""
     n = 0
-    with BagWriter(tmp) as w:
+    with BagWriter(tmp, file_name=src.name) as w:
+        for topic, (msgtype, _) in (recorded[1] if recorded else {}).items():
+            w.add_topic(topic, msgtype)  # topics recorded but cut away stay listed (0)
         for m in _scan_prefix(src, None):
             w.add_topic(m.topic, m.msgtype)
             w.write(m.topic, m.data, m.log_time)
             n += 1
-        w.custom_data["stns_recovered_from"] = "a recording cut short (prefix kept)"
-    damaged = path.with_name(path.name + ".damaged")
-    path.rename(damaged)
-    tmp.rename(path)
-    (path / f"{tmp.name}.mcap").rename(path / f"{path.name}.mcap")
-    meta = (path / "metadata.yaml").read_text().replace(f"{tmp.name}.mcap", f"{path.name}.mcap")
-    (path / "metadata.yaml").write_text(meta)
-    import shutil
-
-    shutil.rmtree(damaged)
+        if isinstance(custom, dict):
+            w.custom_data.update({str(k): str(v) for k, v in custom.items()})
+        of = f" of {recorded[0]}" if recorded else ""
+        w.custom_data["stns_recovered_from"] = (
+            f"{src.name}{_ORIGINAL}: a recording cut short, {n}{of} messages kept")
     return n

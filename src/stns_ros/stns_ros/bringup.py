@@ -189,8 +189,9 @@ def finish(cfg: dict, out: Path, rc: int, quiet: bool) -> int:
     if not (bag / "metadata.yaml").exists():  # the recorder was killed: keep its prefix
         from stns_ros.bag import recover
 
-        n = recover(bag)
-        sys.stderr.write(f"stns_bringup: the bag was cut short; recovered {n} messages\n")
+        r = recover(bag)
+        sys.stderr.write(f"stns_bringup: the bag was cut short; recovered {r.kept} messages "
+                         f"(the file as recorded is kept as {r.originals[0]})\n")
     run_data = load_run(bag)
     summary = summarize(run_data, bag)
     stats_path = out / "agent_stats.json"

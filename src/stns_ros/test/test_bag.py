@@ -8,7 +8,11 @@ from rclpy.serialization import serialize_message
 from std_msgs.msg import String
 from stns_ros.bag import (
     BagWriter,
+    Recovery,
+    bag_dir,
+    check_complete,
     decode,
+    has_summary,
     message_definition,
     read_messages,
     read_metadata,
@@ -81,14 +85,76 @@ def test_killed_writer_leaves_a_readable_prefix(tmp_path):
     assert len(msgs) >= 301  # everything up to the flush, at least
     assert [decode(m).twist.linear.x for m in msgs] == [float(i) for i in range(len(msgs))]
 
-    n = recover(killed)  # rewrite the prefix as a complete bag that every reader opens
+    as_killed = (killed / "b.mcap").read_bytes()
+    r = recover(killed)  # rewrite the prefix as a complete bag that every reader opens
+    n = r.kept
     assert n == len(list(read_messages(killed))) and (killed / "metadata.yaml").exists()
+    assert r == Recovery(n, None, (killed / "b.mcap.orig",), rewritten=True)
+    assert (killed / "b.mcap.orig").read_bytes() == as_killed  # nothing recorded is lost
     from rosbags.highlevel import AnyReader
 
     with AnyReader([killed]) as reader:
         assert sum(1 for _ in reader.messages()) == n
     assert sorted(p.name for p in tmp_path.iterdir()) == ["b", "killed"]
-    assert recover(killed) == n  # a complete bag is left alone
+    assert recover(killed) == Recovery(n, n, (killed / "b.mcap.orig",))  # complete: left alone
+    assert (killed / "b.mcap.orig").read_bytes() == as_killed
+
+
+def _truncated(path, keep=0.6):
+    """A closed bag whose MCAP file lost its tail afterwards (metadata.yaml still there)."""
+    _write(path, n=500, flush_at=300)
+    f = path / f"{path.name}.mcap"
+    f.write_bytes(f.read_bytes()[:int(f.stat().st_size * keep)])
+    return f
+
+
+def test_a_file_truncated_after_closing_is_reported_with_its_counts(tmp_path):
+    _write(tmp_path / "ok", n=500, flush_at=300)
+    assert has_summary(tmp_path / "ok") and check_complete(tmp_path / "ok") is None
+    _truncated(tmp_path / "b")
+    n = len(list(read_messages(tmp_path / "b")))
+    assert 0 < n < 505 and not has_summary(tmp_path / "b")
+    why = check_complete(tmp_path / "b")
+    assert f"{n} of 505 messages readable" in why and "b.mcap has lost its MCAP summary" in why
+    assert "/note " in why and "--recover" in why
+
+
+def test_recover_a_truncated_bag_keeps_the_originals_and_never_overwrites_them(tmp_path):
+    bag = tmp_path / "b"
+    f = _truncated(bag)
+    as_found = f.read_bytes(), (bag / "metadata.yaml").read_text()
+    n = len(list(read_messages(bag)))
+    r = recover(bag)
+    assert r == Recovery(n, 505, (bag / "b.mcap.orig", bag / "metadata.yaml.orig"), True)
+    assert ((bag / "b.mcap.orig").read_bytes(), (bag / "metadata.yaml.orig").read_text()) == as_found
+    assert check_complete(bag) is None and has_summary(bag)
+    meta = read_metadata(bag)
+    assert meta["message_count"] == n and meta["relative_file_paths"] == ["b.mcap"]
+    assert meta["custom_data"]["k"] == "v"  # the run's own custom data stays
+    assert f"{n} of 505 messages kept" in meta["custom_data"]["stns_recovered_from"]
+    from rosbags.highlevel import AnyReader
+
+    with AnyReader([bag]) as reader:
+        assert sum(1 for _ in reader.messages()) == n
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["b"]  # no temporary folder left
+    again = recover(bag)  # now complete: left alone, the originals untouched
+    assert again == Recovery(n, n, r.originals) and not again.rewritten
+    assert ((bag / "b.mcap.orig").read_bytes(), (bag / "metadata.yaml.orig").read_text()) == as_found
+    f.write_bytes(f.read_bytes()[:-100])  # cut again: the first originals must not be replaced
+    with pytest.raises(StnsRosError, match=r"b\.mcap\.orig' exists \(from an earlier recovery"):
+        recover(bag)
+    assert ((bag / "b.mcap.orig").read_bytes(), (bag / "metadata.yaml.orig").read_text()) == as_found
+
+
+def test_bag_dir_of_a_file_inside_a_bag(tmp_path):
+    _write(tmp_path / "b", n=5)
+    assert bag_dir(tmp_path / "b") == bag_dir(tmp_path / "b" / "b.mcap") == tmp_path / "b"
+    (tmp_path / "b" / "metadata.yaml").unlink()  # a killed recorder: the file's name tells
+    assert bag_dir(tmp_path / "b" / "b.mcap") == tmp_path / "b"
+    (tmp_path / "b" / "b.mcap").rename(tmp_path / "loose.mcap")
+    assert bag_dir(tmp_path / "loose.mcap") is None
+    with pytest.raises(StnsRosError, match=r"loose\.mcap' is not one"):
+        recover(tmp_path / "loose.mcap")
 
 
 @pytest.mark.parametrize("content", [b"", b"not a bag", b"\x89MCAP"])
