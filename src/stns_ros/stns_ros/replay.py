@@ -7,6 +7,9 @@
   answer must equal the recorded /cmd_vel bit for bit and every finished behaviour step the
   recorded /stns/steps record. Exit 0 with ``verify: OK`` or 1 with the first mismatch.
 - Prints the run's summary and writes its plots, from the bag alone.
+- A bag whose MCAP file lost its summary (cut short or truncated) fails ``--verify`` with
+  how many of the recorded messages are readable; ``--recover`` first rewrites it as a
+  complete bag, keeping the original file and metadata.yaml beside as ``<name>.orig``.
 """
 
 from __future__ import annotations
@@ -21,6 +24,7 @@ from typing import Any
 
 import numpy as np
 
+from stns_ros.bag import Recovery, check_complete
 from stns_ros.errors import StnsRosError
 from stns_ros.summary import RunData, format_summary, load_run, require_bag, summarize, write_plots
 
@@ -144,6 +148,17 @@ def republish(bag: Path, rate: float) -> int:
     return n
 
 
+def recovery_report(bag: Path, r: Recovery) -> str:
+    """One line saying what `recover` kept, of how much, and where the originals are."""
+    kept = ", ".join(str(p) for p in r.originals)
+    if not r.rewritten:
+        return (f"recover: {bag} is complete ({r.kept} messages), left alone"
+                + (f"; the originals of an earlier recovery stay as {kept}" if kept else ""))
+    of = (f"of {r.recorded} recorded" if r.recorded is not None
+          else "(no metadata.yaml: how many were recorded is unknown)")
+    return f"recovered: {r.kept} messages {of} kept in {bag}; the originals are kept as {kept}"
+
+
 def main(args=None) -> None:
     parser = argparse.ArgumentParser(prog="stns_replay", description=__doc__.splitlines()[0])
     parser.add_argument("bag", help="rosbag2 directory (or .mcap file) of a run")
@@ -153,7 +168,8 @@ def main(args=None) -> None:
                         help="check a fresh agent makes the recorded decisions (no republishing)")
     parser.add_argument("--no-publish", action="store_true", help="do not republish")
     parser.add_argument("--recover", action="store_true",
-                        help="first rewrite a bag cut short (killed recorder) into a complete one")
+                        help="first rewrite a bag cut short (killed recorder, truncated file) "
+                        "into a complete one, keeping the original as <name>.orig")
     parser.add_argument("--out", help="folder for summary.json and plots (default BAG/../replay)")
     ns = parser.parse_args(args)
     try:
@@ -171,8 +187,13 @@ def main(args=None) -> None:
         if ns.recover:
             from stns_ros.bag import recover
 
-            print(f"recovered: {recover(bag)} messages in {bag}")
+            print(recovery_report(bag, recover(bag)))
         run = load_run(bag)
+        problem = check_complete(bag, run.counts)
+        if problem and ns.verify:
+            raise VerifyError(problem)  # a part of the recording cannot be checked
+        if problem:
+            sys.stderr.write(f"stns_replay: warning: {problem}\n")
         summary = summarize(run, bag)
         try:
             out.mkdir(parents=True, exist_ok=True)

@@ -1,0 +1,61 @@
+"""stns_replay on damaged bags (in process; no republishing)."""
+
+import sys
+
+from stns_ros.bag import check_complete, read_messages, read_metadata
+from stns_ros.replay import main
+from test_bag import _truncated, _write
+
+
+def replay(capsys, *args) -> tuple[int, str, str]:
+    """Exit code, stdout and stderr of `stns_replay ARGS`."""
+    try:
+        main([str(a) for a in args])
+        rc = 0
+    except SystemExit as e:
+        rc = e.code if isinstance(e.code, int) else 1
+        if isinstance(e.code, str):
+            print(e.code, file=sys.stderr)  # sys.exit("stns_replay: error: ...")
+    out, err = capsys.readouterr()
+    return rc, out, err
+
+
+def _files(folder) -> dict:
+    return {p.name: p.read_bytes() for p in folder.iterdir()}
+
+
+def test_verify_fails_on_a_truncated_bag_with_the_counts(tmp_path, capsys):
+    bag = tmp_path / "run" / "bag"
+    _truncated(bag)
+    n = len(list(read_messages(bag)))
+    before = _files(bag)
+    rc, out, _ = replay(capsys, bag, "--verify")
+    assert rc == 1 and f"verify: FAILED: bag '{bag}' is truncated" in out, out
+    assert f"{n} of 505 messages readable" in out
+    assert _files(bag) == before  # verifying changes nothing
+
+
+def test_recover_rewrites_a_truncated_bag_and_keeps_the_originals(tmp_path, capsys):
+    bag = tmp_path / "run" / "bag"
+    _truncated(bag)
+    n = len(list(read_messages(bag)))
+    before = _files(bag)
+    rc, out, err = replay(capsys, bag, "--recover", "--no-publish")
+    assert rc == 0, out + err
+    assert f"recovered: {n} messages of 505 recorded kept in {bag}" in out
+    assert "bag.mcap.orig" in out and "metadata.yaml.orig" in out and "warning" not in err
+    kept = {"bag.mcap.orig": before["bag.mcap"], "metadata.yaml.orig": before["metadata.yaml"]}
+    assert {k: v for k, v in _files(bag).items() if k in kept} == kept
+    assert check_complete(bag) is None and read_metadata(bag)["message_count"] == n
+    rc, out, _ = replay(capsys, bag, "--recover", "--no-publish")  # again: nothing to do
+    assert rc == 0 and f"recover: {bag} is complete ({n} messages), left alone" in out
+    assert {k: v for k, v in _files(bag).items() if k in kept} == kept
+
+
+def test_recover_leaves_a_complete_bag_alone(tmp_path, capsys):
+    bag = tmp_path / "run" / "bag"
+    _write(bag)
+    before = _files(bag)
+    rc, out, err = replay(capsys, bag, "--recover", "--no-publish")
+    assert rc == 0 and f"recover: {bag} is complete (505 messages), left alone" in out, out + err
+    assert _files(bag) == before
