@@ -24,7 +24,7 @@ from typing import Any
 
 import numpy as np
 
-from stns_ros.bag import Recovery, check_complete
+from stns_ros.bag import Recovery, bag_dir, check_complete, mcap_file
 from stns_ros.errors import StnsRosError
 from stns_ros.summary import RunData, format_summary, load_run, require_bag, summarize, write_plots
 
@@ -148,6 +148,21 @@ def republish(bag: Path, rate: float) -> int:
     return n
 
 
+def resolve_bag(arg: str) -> tuple[Path, Path | None]:
+    """(the bag to read, its rosbag2 directory or None for a bare .mcap file). The .mcap file
+    of a bag directory is read as that directory, so its metadata.yaml is checked too."""
+    bag = require_bag(arg)
+    folder = bag_dir(bag)
+    if folder is not None and bag.is_file() and mcap_file(folder).samefile(bag):
+        bag = folder
+    return bag, folder
+
+
+def default_out(bag: Path, folder: Path | None) -> Path:
+    """<run>/replay: beside the bag directory (also for its .mcap file), never inside it."""
+    return (folder or bag).resolve().parent / "replay"
+
+
 def recovery_report(bag: Path, r: Recovery) -> str:
     """One line saying what `recover` kept, of how much, and where the originals are."""
     kept = ", ".join(str(p) for p in r.originals)
@@ -173,10 +188,13 @@ def main(args=None) -> None:
     parser.add_argument("--out", help="folder for summary.json and plots (default BAG/../replay)")
     ns = parser.parse_args(args)
     try:
-        bag = require_bag(ns.bag)
+        bag, folder = resolve_bag(ns.bag)
         if not math.isfinite(ns.rate) or ns.rate < 0:
             raise StnsRosError(f"--rate must be a finite number >= 0, got {ns.rate}")
-        out = Path(ns.out) if ns.out else bag.resolve().parent / "replay"
+        out = Path(ns.out) if ns.out else default_out(bag, folder)
+        if folder is not None and out.resolve().is_relative_to(folder.resolve()):
+            raise StnsRosError(f"--out {str(out)!r} is inside the bag directory {str(folder)!r}; "
+                               "choose a folder outside it")
         if out.resolve() == bag.resolve().parent or (out / "run_config.json").exists():
             # the bring-up's own summary.json and plots are the run's record: keep them
             raise StnsRosError(

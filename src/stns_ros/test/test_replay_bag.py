@@ -1,7 +1,8 @@
-"""stns_replay on damaged bags (in process; no republishing)."""
+"""stns_replay on damaged bags and on a bag's .mcap file (in process; no republishing)."""
 
 import sys
 
+import pytest
 from stns_ros.bag import check_complete, read_messages, read_metadata
 from stns_ros.replay import main
 from test_bag import _truncated, _write
@@ -58,4 +59,19 @@ def test_recover_leaves_a_complete_bag_alone(tmp_path, capsys):
     before = _files(bag)
     rc, out, err = replay(capsys, bag, "--recover", "--no-publish")
     assert rc == 0 and f"recover: {bag} is complete (505 messages), left alone" in out, out + err
+    assert _files(bag) == before
+
+
+@pytest.mark.parametrize("closed", [True, False])
+def test_the_mcap_file_of_a_bag_writes_beside_the_bag_not_inside(tmp_path, capsys, closed):
+    bag = tmp_path / "run" / "bag"
+    _write(bag, close=closed)  # not closed: a killed recorder, no metadata.yaml
+    before = _files(bag)
+    rc, out, err = replay(capsys, bag / "bag.mcap", "--no-publish")
+    assert rc == 0, out + err
+    assert _files(bag) == before  # nothing written into the bag directory
+    assert (tmp_path / "run" / "replay" / "summary.json").exists()
+    assert ("cut short" in err) != closed  # the unclosed bag is named as such
+    rc, _, err = replay(capsys, bag / "bag.mcap", "--no-publish", "--out", bag / "replay")
+    assert rc != 0 and "is inside the bag directory" in err
     assert _files(bag) == before
