@@ -15,6 +15,7 @@ from __future__ import annotations
 import json
 import os
 import re
+import shutil
 import struct
 from collections.abc import Iterator, Mapping
 from dataclasses import dataclass
@@ -478,7 +479,11 @@ def recover(bag: str | os.PathLike[str]) -> Recovery:
     for p in (*originals, tmp):
         if p.exists():  # never overwrite what an earlier recovery kept
             raise StnsRosError(f"{str(p)!r} exists (from an earlier recovery): move it away first")
-    n = _rewrite(src, tmp, recorded, read_metadata(path).get("custom_data") if recorded else None)
+    try:
+        n = _rewrite(src, tmp, recorded, read_metadata(path).get("custom_data") if recorded else None)
+    except BaseException:
+        shutil.rmtree(tmp, ignore_errors=True)  # only our own half-written copy
+        raise
     # the original bytes are renamed, never deleted; metadata.yaml comes last, so an
     # interruption leaves a bag that is again recoverable (and its originals refused)
     src.rename(originals[0])

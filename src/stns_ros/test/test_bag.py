@@ -164,7 +164,10 @@ def test_a_file_that_is_not_mcap_is_refused_by_name(tmp_path, content):
     (bag / "fake.mcap").write_bytes(content)
     with pytest.raises(StnsRosError, match=r"fake\.mcap' is not an MCAP file"):
         list(read_messages(bag))
+    with pytest.raises(StnsRosError, match=r"fake\.mcap' is not an MCAP file"):
+        recover(bag)
     assert (bag / "fake.mcap").read_bytes() == content  # left as it was
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["fake"]  # no half-written copy
 
 
 def test_a_complete_bag_with_a_damaged_chunk_is_reported_not_raised_raw(tmp_path):
