@@ -163,6 +163,15 @@ def default_out(bag: Path, folder: Path | None) -> Path:
     return (folder or bag).resolve().parent / "replay"
 
 
+def _incomplete(bag: Path, counts: dict[str, int]) -> str | None:
+    """Why the bag is not all there (`check_complete`), a damaged metadata.yaml included:
+    that fails --verify too, but need not stop a replay of what is readable."""
+    try:
+        return check_complete(bag, counts)
+    except StnsRosError as e:
+        return str(e)
+
+
 def recovery_report(bag: Path, r: Recovery) -> str:
     """One line saying what `recover` kept, of how much, and where the originals are."""
     kept = ", ".join(str(p) for p in r.originals)
@@ -207,7 +216,7 @@ def main(args=None) -> None:
 
             print(recovery_report(bag, recover(bag)))
         run = load_run(bag)
-        problem = check_complete(bag, run.counts)
+        problem = _incomplete(bag, run.counts)
         if problem and ns.verify:
             raise VerifyError(problem)  # a part of the recording cannot be checked
         if problem:

@@ -75,3 +75,13 @@ def test_the_mcap_file_of_a_bag_writes_beside_the_bag_not_inside(tmp_path, capsy
     rc, _, err = replay(capsys, bag / "bag.mcap", "--no-publish", "--out", bag / "replay")
     assert rc != 0 and "is inside the bag directory" in err
     assert _files(bag) == before
+
+
+def test_a_damaged_metadata_yaml_fails_verify_but_not_a_replay(tmp_path, capsys):
+    bag = tmp_path / "run" / "bag"
+    _write(bag)
+    (bag / "metadata.yaml").write_text("rosbag2_bagfile_information: {message_count: x}\n")
+    rc, out, _ = replay(capsys, bag, "--verify")
+    assert rc == 1 and "verify: FAILED: " in out and "metadata.yaml' does not list" in out
+    rc, out, err = replay(capsys, bag, "--no-publish")
+    assert rc == 0 and "warning:" in err and "metadata.yaml' does not list" in err, out + err
