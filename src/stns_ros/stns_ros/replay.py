@@ -194,7 +194,8 @@ def main(args=None) -> None:
     parser.add_argument("--recover", action="store_true",
                         help="first rewrite a bag cut short (killed recorder, truncated file) "
                         "into a complete one, keeping the original as <name>.orig")
-    parser.add_argument("--out", help="folder for summary.json and plots (default BAG/../replay)")
+    parser.add_argument("--out", help="folder for summary.json and plots (default <run>/replay, "
+                        "beside the bag directory)")
     ns = parser.parse_args(args)
     try:
         bag, folder = resolve_bag(ns.bag)
