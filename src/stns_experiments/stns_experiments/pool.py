@@ -34,7 +34,7 @@ from stns_experiments.experiments import (
     random_summary,
     summarise_sets,
 )
-from stns_experiments.report import read_json
+from stns_experiments.report import json_kind, read_object
 from stns_experiments.runner import workspace_root, write_json
 
 # parameters that may differ between pooled runs: they choose which trial sets a run holds
@@ -64,9 +64,9 @@ def _is_count(v: Any) -> bool:
 def read_set(path: Path, what: str, exp2: bool = False) -> dict:
     """A trial set's result file (sets/*.json) of an STNS learner, checked: its block and
     final counts (and for Exp. 2 its mode and level) are there and are counts."""
-    r = read_json(path, what)
+    r = read_object(path, what)
     need = SET_KEYS + (("mode", "level") if exp2 else ())
-    missing = [k for k in need if not isinstance(r, dict) or k not in r]
+    missing = [k for k in need if k not in r]
     if missing:
         raise ExperimentError(f"{what}: {str(path)!r} lacks {', '.join(missing)}")
     for k in ("block_behaviours", "block_arrivals"):
@@ -82,12 +82,29 @@ def read_set(path: Path, what: str, exp2: bool = False) -> dict:
     return r
 
 
+def _object_in(d: dict, key: str, path: Path, what: str) -> dict:
+    """``d[key]`` of a run file: a JSON object, or {} when absent or null; another kind of
+    value is named, as it would fail later where it is read."""
+    v = d.get(key)
+    if v is None:
+        return {}
+    if not isinstance(v, dict):
+        raise ExperimentError(f"{what}: {str(path)!r}: {key} holds {json_kind(v)}, "
+                              f"not a JSON object")
+    return v
+
+
 def load_run(folder: Path) -> dict[str, Any]:
     """A run folder's config, summary and per-set results (and Exp. 2 pre-training sets)."""
     folder = Path(folder)
-    cfg = read_json(folder / "config.json", "run config")
-    summ = read_json(folder / "summary.json", "run summary")
-    p = cfg.get("params") or {}
+    cfg_path, summ_path = folder / "config.json", folder / "summary.json"
+    cfg = read_object(cfg_path, "run config")
+    summ = read_object(summ_path, "run summary")
+    for key in ("agent_config", "world_config"):
+        _object_in(cfg, key, cfg_path, "run config")
+    for key in ("code_version", "paper"):
+        _object_in(summ, key, summ_path, "run summary")
+    p = _object_in(cfg, "params", cfg_path, "run config")
     exp = p.get("experiment")
     if exp not in POOLABLE:
         raise ExperimentError(f"{str(folder)!r}: experiment {exp!r} cannot be pooled "
@@ -100,7 +117,7 @@ def load_run(folder: Path) -> dict[str, Any]:
            "random": None, "base_dir": None, "base_sets": []}
     rnd = folder / "sets" / "random.json"
     if rnd.exists():
-        run["random"] = read_json(rnd, "random-policy result")
+        run["random"] = read_object(rnd, "random-policy result")
     if exp.startswith("exp2"):
         base = Path(p["from"]) if p.get("from") else folder / "base"
         if not base.is_absolute() and not base.exists():

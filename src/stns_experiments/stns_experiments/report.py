@@ -28,6 +28,25 @@ def read_json(path: Path, what: str) -> Any:
         raise ExperimentError(f"{what}: {str(path)!r} is not readable JSON: {e}") from None
 
 
+def json_kind(v: Any, limit: int = 60) -> str:
+    """A JSON value as an error names it: its kind and its text, cut at ``limit`` characters."""
+    if v is None:
+        return "null"
+    kind = {dict: "an object", list: "a list", str: "a string", bool: "a boolean"}.get(
+        type(v), "a number")
+    text = json.dumps(v)
+    return f"{kind} {text if len(text) <= limit else text[:limit] + '...'}"
+
+
+def read_object(path: Path, what: str) -> dict[str, Any]:
+    """The JSON object of a file; a missing or unreadable file, or one holding another kind
+    of JSON value (a list, a number), is named (with ``what``) with what it holds."""
+    d = read_json(path, what)
+    if not isinstance(d, dict):
+        raise ExperimentError(f"{what}: {str(path)!r} holds {json_kind(d)}, not a JSON object")
+    return d
+
+
 def print_or_fail(make_text: Callable[[], str]) -> int:
     """The exit code of a command that prints ``make_text()``: 0, or 2 with an
     ExperimentError written as one "error:" line and nothing printed."""
@@ -43,8 +62,8 @@ def print_or_fail(make_text: Callable[[], str]) -> int:
 def read_summary(folder: Path) -> dict[str, Any]:
     """A run folder's summary.json, checked to be the summary of one of the experiments."""
     path = folder / "summary.json"
-    s = read_json(path, "run summary")
-    exp = s.get("experiment") if isinstance(s, dict) else None
+    s = read_object(path, "run summary")
+    exp = s.get("experiment")
     if exp not in EXPERIMENTS:
         raise ExperimentError(
             f"run summary: {str(path)!r} is not the summary of an experiment (its "

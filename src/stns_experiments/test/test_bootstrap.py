@@ -136,6 +136,10 @@ def test_bad_arguments_and_folders_fail_with_the_value_named(tmp_path, capsys):
     assert "got 0" in capsys.readouterr().err
     assert BS.main([str(run), str(run)]) == 2
     assert "is named twice" in capsys.readouterr().err
+    (run / "config.json").write_text("[]")
+    assert BS.main([str(run)]) == 2
+    assert capsys.readouterr().err == (f"error: run config: {str(run / 'config.json')!r} "
+                                       f"holds a list [], not a JSON object\n")
 
 
 def test_main_prints_the_table_and_writes_strict_json(tmp_path, capsys):

@@ -130,6 +130,36 @@ def test_corrupt_or_missing_files_are_named(tmp_path, same_code):
         P.pool([a])
 
 
+@pytest.mark.parametrize(("name", "content", "held"), [
+    ("summary.json", "[1, 2]", "run summary: '{}' holds a list [1, 2], not a JSON object"),
+    ("config.json", "[]", "run config: '{}' holds a list [], not a JSON object"),
+    ("sets/random.json", "3", "random-policy result: '{}' holds a number 3, not a JSON object"),
+    ("sets/set00.json", '"x"', "trial-set result: '{}' holds a string \"x\", not a JSON object"),
+])
+def test_a_run_file_holding_other_json_than_an_object_is_named(tmp_path, same_code, capsys,
+                                                               name, content, held):
+    a = _write_run(tmp_path / "a", 0, [_set("set00", [4] * 4, [2] * 4)],
+                   random={"steps": 60, "arrivals": 2})
+    (a / name).write_text(content)
+    assert P.main([str(a)]) == 2
+    out, err = capsys.readouterr()
+    assert out == "" and err == f"error: {held.format(a / name)}\n"
+
+
+@pytest.mark.parametrize(("key", "file"), [("params", "config.json"),
+                                           ("agent_config", "config.json"),
+                                           ("world_config", "config.json"),
+                                           ("code_version", "summary.json"),
+                                           ("paper", "summary.json")])
+def test_a_recorded_mapping_holding_another_kind_is_named(tmp_path, same_code, key, file):
+    a = _write_run(tmp_path / "a", 0, [_set("set00", [4] * 4, [2] * 4)])
+    d = json.loads((a / file).read_text())
+    d[key] = [1]
+    (a / file).write_text(json.dumps(d))
+    with pytest.raises(ExperimentError, match=rf"{file}': {key} holds a list \[1\], not a JSON"):
+        P.pool([a])
+
+
 def test_refuses_other_library_code_unless_asked(tmp_path, monkeypatch):
     a = _write_run(tmp_path / "a", 0, [_set("set00", [4] * 4, [2] * 4)], commit="aaaaaaa")
     b = _write_run(tmp_path / "b", 1, [_set("set00", [4] * 4, [2] * 4)], commit="bbbbbbb")

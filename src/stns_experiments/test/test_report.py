@@ -66,7 +66,7 @@ def test_main_prints_every_folder_in_order(tmp_path, capsys):
 @pytest.mark.parametrize("summary, message", [
     (None, "does not exist"),
     ("{bad", "is not readable JSON"),
-    ("[1, 2]", "is not the summary of an experiment (its \"experiment\" is None"),
+    ("[1, 2]", "holds a list [1, 2], not a JSON object"),
     ({"experiment": "exp9"}, "its \"experiment\" is 'exp9'"),
     ({**EXP1, "final_behaviours_to_goal": "fast"}, "holds a value of the wrong kind"),
     ({**EXP2, "levels": {"10deg": 3}}, "holds a value of the wrong kind"),
