@@ -113,6 +113,11 @@ def load_run(folder: Path) -> dict[str, Any]:
             for f in _set_files(folder)]
     if not sets:
         raise ExperimentError(f"{str(folder)!r}: no trial-set results in sets/")
+    n = summ.get("trial_sets")
+    if exp in ("exp1", "exp3") and _is_count(n) and n != len(sets):
+        # the summary counts the sets it was made from: result files were lost or added since
+        raise ExperimentError(f"{str(folder)!r}: its summary.json counts {n} trial sets but "
+                              f"sets/ holds {len(sets)} result files")
     run = {"folder": folder, "params": p, "config": cfg, "summary": summ, "sets": sets,
            "random": None, "base_dir": None, "base_sets": []}
     rnd = folder / "sets" / "random.json"
@@ -164,6 +169,10 @@ def _flat(d: Any, prefix: str = "") -> dict[str, Any]:
 
 def check_same_settings(runs: list[dict]) -> None:
     """Refuse runs whose settings differ in anything but the free parameters."""
+    exps = {str(r["folder"]): r["params"]["experiment"] for r in runs}
+    if len(set(exps.values())) > 1:  # named first: every other setting differs with it
+        raise ExperimentError("cannot pool runs of different experiments: " + ", ".join(
+            f"{f!r} is {e}" for f, e in exps.items()))
     ref = _flat(_comparable(runs[0]))
     for run in runs[1:]:
         got = _flat(_comparable(run))

@@ -57,7 +57,7 @@ def synthetic_run(folder, seed, sets, params=None, commit="abc1234", agent_confi
            "world_config": {"seed": seed, "tick_s": 0.1},
            "agent_config": agent_config or {"seed": 0, "p_min": 0.1}}
     (folder / "config.json").write_text(json.dumps(cfg))
-    summ = {"experiment": p["experiment"], "seed": seed, "paper": {},
+    summ = {"experiment": p["experiment"], "seed": seed, "trial_sets": len(sets), "paper": {},
             "code_version": {"commit": commit, "uncommitted": []}}
     (folder / "summary.json").write_text(json.dumps(summ))
     for s in sets:

@@ -265,3 +265,22 @@ def test_pooling_one_real_run_gives_its_own_summary_and_two_seeds_add_up(tmp_pat
     assert both["trial_sets"] == 4
     assert both["success_counts_t"] == [a + b for a, b in zip(own["success_counts_t"],
                                                                second["success_counts_t"], strict=True)]
+
+
+def test_a_run_whose_result_files_were_lost_is_refused(tmp_path, same_code):
+    a = _write_run(tmp_path / "a", 0, [_set("set00", [4] * 4, [2] * 4),
+                                       _set("set01", [4] * 4, [2] * 4)])
+    assert P.pool([a])["trial_sets"] == 2
+    (a / "sets" / "set01.json").unlink()
+    with pytest.raises(ExperimentError, match=r"a': its summary.json counts 2 trial sets but "
+                                              r"sets/ holds 1 result files"):
+        P.pool([a])
+
+
+def test_runs_of_different_experiments_are_named_with_their_experiment(tmp_path, same_code):
+    a = _write_run(tmp_path / "a", 0, [_set("set00", [4] * 4, [2] * 4)])
+    b = _write_run(tmp_path / "b", 1, [_set("set00", [4] * 4, [2] * 4)],
+                   params=dict(PARAMS, experiment="exp3"), agent_config={"seed": 0, "p_min": 0.2})
+    with pytest.raises(ExperimentError, match=rf"different experiments: '{a}' is exp1, "
+                                              rf"'{b}' is exp3$"):
+        P.pool([a, b])
