@@ -96,6 +96,14 @@ def main(args: list[str] | None = None) -> int:
         overrides: dict = {}
         for item in ns.sets:
             overrides = merge(overrides, nest(*parse_set(item)))
+        flags = {"trial_sets": ns.trial_sets, "steps": ns.steps, "seed": ns.seed,
+                 "from": ns.from_dir, "levels": ns.levels, "figures": ns.no_figures or None}
+        both = [k for k, v in flags.items() if v is not None and k in overrides]
+        if both:  # one would silently win, and the other would not even be checked
+            k = both[0]
+            flag = "--no-figures" if k == "figures" else f"--{k.replace('_', '-')}"
+            raise ExperimentError(f"{k} is given twice: --set {k}={overrides[k]!r} and {flag}; "
+                                  "give one")
         for key, val in (("trial_sets", ns.trial_sets), ("steps", ns.steps), ("seed", ns.seed)):
             if val is not None:
                 overrides[key] = val

@@ -200,6 +200,10 @@ def validate(exp: str, params: Mapping[str, Any]) -> dict[str, Any]:
                     f"levels: a slowdown must be in [0, 100) %, got {bad[0]!r}")
         else:
             p["levels"] = [_num("levels[]", v, -360.0, 360.0) for v in levels]
+        twice = sorted({v for v in p["levels"] if p["levels"].count(v) > 1})
+        if twice:  # two runs of one level would write the same result files
+            raise ExperimentError(f"levels: {', '.join(f'{v:g}' for v in twice)} given more "
+                                  f"than once in {levels!r}")
         p["scratch"] = _bool("scratch", p["scratch"])
         if p["from"] is not None and not isinstance(p["from"], (str, os.PathLike)):
             raise ExperimentError(f"from must be a directory path, got {p['from']!r}")
@@ -245,12 +249,22 @@ def load_yaml(path: Path) -> dict[str, Any]:
     try:
         data = yaml.safe_load(text)
     except yaml.YAMLError as e:
-        raise ExperimentError(f"config file {str(path)!r} is not valid YAML: {e}") from None
+        raise ExperimentError(f"config file {str(path)!r} is not valid YAML: "
+                              f"{_yaml_problem(e)}") from None
     if data is None:
         return {}
     if not isinstance(data, Mapping):
         raise ExperimentError(f"config file {str(path)!r} must hold a mapping, got {type(data).__name__}")
     return dict(data)
+
+
+def _yaml_problem(e: yaml.YAMLError) -> str:
+    """A YAML error on one line, with its line and column in the file (PyYAML's own text
+    spans lines and names the parsed text "<unicode string>")."""
+    mark = getattr(e, "problem_mark", None)
+    problem = getattr(e, "problem", None) or str(e).splitlines()[0]
+    at = f" at line {mark.line + 1}, column {mark.column + 1}" if mark is not None else ""
+    return f"{problem}{at}"
 
 
 def find_config_dir() -> Path | None:

@@ -47,13 +47,15 @@ def test_paper_numbers_in_presets():
     ("experiment: exp3\n", r"the file is for 'exp3', not 'exp1'"),
     ("convergence_tol: 0\n", r"convergence_tol must be > 0.0, got 0"),
     ("- a\n- b\n", r"must hold a mapping, got list"),
-    ("steps: [1, \n", r"is not valid YAML"),
+    ("steps: [1, \n", r"bad.yaml' is not valid YAML: expected the node content, but found '<stream end>' at "
+                        r"line 2, column 1$"),
 ])
 def test_bad_yaml_values_name_the_value(tmp_path, text, match):
     f = tmp_path / "bad.yaml"
     f.write_text(text)
-    with pytest.raises(ExperimentError, match=match):
+    with pytest.raises(ExperimentError, match=match) as e:
         resolve("exp1", f)
+    assert "<unicode string>" not in str(e.value)  # a YAML error points into the file itself
 
 
 def test_exp2_and_grid_values_are_checked(tmp_path):
@@ -97,6 +99,11 @@ def test_missing_file_and_overrides(tmp_path):
     (["exp1", "--set", "world.overrides.room_size=-1"], "world: "),
     (["exp1", "--set", "agent.overrides.miss_stop=off"], "got the boolean False .in YAML, quote"),
     (["exp2-sensor", "--from", "/nonexistent"], "--from: no such directory '/nonexistent'"),
+    (["exp1", "--set", "steps=abc", "--steps", "100"],
+     r"steps is given twice: --set steps='abc' and --steps; give one"),
+    (["exp1", "--set", "figures=maybe", "--no-figures"], r"figures is given twice: .*--no-figures"),
+    (["exp2-sensor", "--levels", "10", "10", "15"],
+     r"levels: 10 given more than once in \[10, 10, 15\]"),
 ])
 def test_cli_bad_arguments_exit_2_with_message(argv, match, capsys):
     with pytest.raises(SystemExit) as exc:
