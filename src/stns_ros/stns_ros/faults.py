@@ -187,7 +187,16 @@ def read_yaml(path: Path, what: str) -> Any:
     try:
         return yaml.safe_load(text)
     except yaml.YAMLError as e:
-        raise StnsRosError(f"{path}: not valid YAML: {e}") from None
+        raise StnsRosError(f"{path}: not valid YAML: {yaml_problem(e)}") from None
+
+
+def yaml_problem(e: yaml.YAMLError) -> str:
+    """A YAML error on one line, with its line and column in the file (PyYAML's own text
+    spans lines and names the parsed text "<unicode string>")."""
+    mark = getattr(e, "problem_mark", None)
+    problem = getattr(e, "problem", None) or str(e).splitlines()[0]
+    at = f" at line {mark.line + 1}, column {mark.column + 1}" if mark is not None else ""
+    return f"{problem}{at}"
 
 
 def ramp_points(start: dict[str, float], event: FaultEvent, t0: float) -> list[tuple[float, dict[str, float]]]:

@@ -26,7 +26,13 @@ import yaml
 
 from stns_ros.driver import seeds_from_run_seed
 from stns_ros.errors import StnsRosError
-from stns_ros.faults import FaultScenario, load_scenario, parse_scenario, read_yaml
+from stns_ros.faults import (
+    FaultScenario,
+    load_scenario,
+    parse_scenario,
+    read_yaml,
+    yaml_problem,
+)
 from stns_ros.params import FAULT_NEUTRAL, FAULT_PARAMS, TUNING, check_fault, check_tuning
 
 SCHEMA: dict[str, dict[str, Any]] = {
@@ -193,7 +199,7 @@ def load_node_params(path: str | Path) -> dict[str, dict[str, Any]]:
     except OSError as e:
         raise StnsRosError(f"cannot read node parameter file {str(p)!r}: {e.strerror}") from None
     except yaml.YAMLError as e:
-        raise StnsRosError(f"{p}: not valid YAML: {e}") from None
+        raise StnsRosError(f"{p}: not valid YAML: {yaml_problem(e)}") from None
     out: dict[str, dict[str, Any]] = {}
     if not isinstance(data, Mapping):
         raise StnsRosError(f"{p}: a ROS parameter file must be a mapping, got {data!r}")

@@ -60,7 +60,13 @@ def test_bad_values_are_refused_with_key_and_value(patch, match, tmp_path):
 def test_bad_yaml_names_the_file(tmp_path):
     p = tmp_path / "run.yaml"
     p.write_text("run: {steps: 3\n")
-    with pytest.raises(StnsRosError, match=r"run.yaml: not valid YAML"):
+    with pytest.raises(StnsRosError, match=r"run.yaml: not valid YAML: expected ',' or '}', "
+                                           r"but got '<stream end>' at line 2, column 1$"):
+        load_run_config(p)
+    nodes = tmp_path / "nodes.yaml"
+    nodes.write_text("rover_sim: [\n")
+    p.write_text(f"nodes: {nodes}\n")
+    with pytest.raises(StnsRosError, match=r"nodes.yaml: not valid YAML: .* at line 2, column 1$"):
         load_run_config(p)
     p.write_text(yaml.safe_dump({"run": {"steps": "many"}}))
     with pytest.raises(StnsRosError, match=r"run.yaml: run.steps must be an integer >= 1, got 'many'"):
