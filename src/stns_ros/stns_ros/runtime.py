@@ -14,6 +14,7 @@ import time
 from collections.abc import Callable
 
 import rclpy
+from rclpy._rclpy_pybind11 import RCLError
 from rclpy.exceptions import ParameterException
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
@@ -45,6 +46,12 @@ def spin(node: Node, done: Callable[[], bool] = lambda: False) -> None:
         executor.remove_node(node)
 
 
+def _rcl_reason(e: Exception) -> str:
+    """rcl's message without its C source locations (", at /project/src/parse.c:841")."""
+    text = " ".join(str(e).split())
+    return text.split(", at /")[0].rstrip()
+
+
 def run_node(name: str, make_node: Callable[[], Node], args: list[str] | None = None,
              done: Callable[[Node], bool] = lambda node: False,
              drain_seconds: float = 0.0) -> None:
@@ -57,14 +64,17 @@ def run_node(name: str, make_node: Callable[[], Node], args: list[str] | None = 
     A configuration error (bad parameter, bad scenario) exits with its message, no traceback.
     """
     stop: list[int] = []
-    if drain_seconds > 0.0:
-        from rclpy.signals import SignalHandlerOptions
+    try:
+        if drain_seconds > 0.0:
+            from rclpy.signals import SignalHandlerOptions
 
-        rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
-        for sig in (signal.SIGINT, signal.SIGTERM):
-            signal.signal(sig, lambda signum, frame: stop.append(signum))
-    else:
-        rclpy.init(args=args)
+            rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
+            for sig in (signal.SIGINT, signal.SIGTERM):
+                signal.signal(sig, lambda signum, frame: stop.append(signum))
+        else:
+            rclpy.init(args=args)
+    except RCLError as e:  # a --params-file rcl cannot parse, a bad --ros-args
+        sys.exit(f"{name}: cannot start: {_rcl_reason(e)}")
     node = None
     try:
         node = make_node()
