@@ -233,6 +233,10 @@ class StnsAgentNode(Node):
                 self.get_logger().info(
                     f"progress {self.run_steps}/{self.max_steps or '-'} "
                     f"behaviour steps, {self.frames} frames")
+            every = self.params["checkpoint_every"]
+            if (every and self.params["state_out"]
+                    and self.run_steps // every != (self.run_steps - len(records)) // every):
+                self._checkpoint()
         c = self._cmd
         set_stamp(c.header.stamp, t)
         c.twist.linear.x = v
@@ -337,6 +341,15 @@ class StnsAgentNode(Node):
                 out = spare
                 self.driver.agent.save(out)
             self.get_logger().info(f"learner saved to {out}")
+
+
+    def _checkpoint(self) -> None:
+        """Save the learner to state_out now (atomically: a kill mid-save keeps the last one).
+        A failing disk is logged, not fatal: the save on shutdown tries again."""
+        try:
+            self.driver.agent.save(self.params["state_out"])
+        except OSError as e:
+            self.get_logger().warning(f"checkpoint to {self.params['state_out']} failed: {e}")
 
 
 def situation_markers(info: dict, t: int) -> MarkerArray:

@@ -148,6 +148,9 @@ def run(cfg: dict, out: Path, quiet: bool = False) -> int:
                     rc = 1
                     sys.stderr.write(f"stns_bringup: stns_agent_node exited with {agent_rc}; "
                                      f"see {out / 'logs' / 'stns_agent.log'}\n")
+                    state = out / "learner_state"
+                    if cfg["learner"]["save_state"] and state.exists():
+                        sys.stderr.write(f"stns_bringup: its last checkpoint is kept: {state}\n")
                 break
             dead = [n for n, p in b.procs.items() if p.poll() is not None]
             if dead:

@@ -72,6 +72,9 @@ TUNING: dict[str, dict[str, Tuning]] = {
             100, "Publish /stns/situations every this many behaviour steps.", (1, 100000)),
         "progress_every": Tuning(
             250, "Log progress every this many behaviour steps.", (1, 10**9)),
+        "checkpoint_every": Tuning(
+            250, "Save the learner to state_out every this many behaviour steps, so a killed "
+            "agent loses at most that many (0 = only on shutdown).", (0, 10**9)),
     },
     "fault_injector": {
         "check_period": Tuning(

@@ -228,3 +228,34 @@ def _wait_for_subscriber(ex, publisher) -> None:
         if publisher.get_subscription_count() > 0:
             return
         ex.spin_once(timeout_sec=0.05)
+
+
+def test_agent_checkpoints_the_learner_while_it_runs(rclpy_context, tmp_path):
+    """A killed agent keeps what it learned up to its last checkpoint."""
+    from geometry_msgs.msg import PointStamped, Vector3Stamped
+    from stns_ros.agent_node import StnsAgentNode
+
+    from stns_core import StnsAgent
+
+    state = tmp_path / "learner_state"
+    agent = StnsAgentNode(parameter_overrides=[
+        Parameter("state_out", value=str(state)), Parameter("checkpoint_every", value=2)])
+    try:
+        sec = 0
+        while agent.run_steps < 2 and sec < 100:
+            sec += 1
+            goal = PointStamped()
+            goal.header.stamp.sec = sec
+            goal.point.x, goal.point.y = 1.0, -0.5
+            reward = Vector3Stamped()
+            reward.header.stamp.sec = sec
+            if sec % 5 == 0:  # a goal arrival ends the behaviour step
+                reward.vector.x, reward.vector.y = 1.0, 1.0
+            agent._on_goal(goal)
+            agent._on_reward(reward)
+            if agent.run_steps < 2:
+                assert not state.exists()  # no checkpoint before the second behaviour step
+        assert agent.run_steps >= 2 and state.exists()
+        assert StnsAgent.load(state).behaviour_steps == agent.run_steps
+    finally:
+        agent.destroy_node()  # no close(): as if killed, the checkpoint is all there is
