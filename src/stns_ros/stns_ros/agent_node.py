@@ -28,12 +28,13 @@ from rclpy.duration import Duration
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 from rclpy.serialization import serialize_message
+from rosgraph_msgs.msg import Clock as ClockMsg
 from sensor_msgs.msg import LaserScan
 from std_msgs.msg import Int32, String
 from visualization_msgs.msg import Marker, MarkerArray
 
 from stns_ros import topics as T
-from stns_ros.conversion import UNIT_M, m_to_u, set_stamp, stamp_ns
+from stns_ros.conversion import UNIT_M, m_to_u, set_stamp, stamp_ns, tick_ns
 from stns_ros.driver import AgentDriver, action_velocities, dumps, make_agent, record_to_dict
 from stns_ros.errors import StnsRosError
 from stns_ros.params import TUNING, check_choice, declare, declare_tuning, result
@@ -41,6 +42,12 @@ from stns_ros.runtime import run_node
 from stns_ros.sim_node import FRAME_QOS
 
 EXPLAIN_QOS = 100
+# A frame stamped ahead of /clock is held until the clock reaches it (the two topics of one
+# frame can arrive in either order); one stamped further ahead than this is not from the
+# simulator (a second publisher, a replayed bag) and is refused: learning from it would make
+# every real frame after it look old and stall a lockstep run.
+MAX_AHEAD_NS = 1_000_000_000
+MAX_HELD = 64  # pending frames kept; the oldest are dropped first
 # Lowest values of StnsConfig's integer fields (stns_core validates them too); others are >= 1.
 INT_LOWEST = {"seed": 0, "target_lookahead_ticks": 0, "max_behaviour_ticks": 0, "history_size": 2}
 
@@ -110,7 +117,9 @@ class StnsAgentNode(Node):
             raise StnsRosError(f"world_overrides is not JSON: {e}") from None
         from rover_sim import WorldConfig
 
-        self.obs_dim = WorldConfig.preset(p["world_preset"], **overrides).observation_dim
+        world = WorldConfig.preset(p["world_preset"], **overrides)
+        self.obs_dim = world.observation_dim
+        self.tick_ns = tick_ns(world.tick_seconds)
         from stns_core import StnsError
 
         try:
@@ -127,6 +136,7 @@ class StnsAgentNode(Node):
         self.pub_situation = self.create_publisher(Int32, T.SITUATION, EXPLAIN_QOS)
         self.pub_plan = self.create_publisher(String, T.PLAN, EXPLAIN_QOS)
         self.pub_markers = self.create_publisher(MarkerArray, T.SITUATIONS, EXPLAIN_QOS)
+        self.create_subscription(ClockMsg, T.CLOCK, self._on_clock, FRAME_QOS)
         self.create_subscription(PointStamped, T.GOAL, self._on_goal, FRAME_QOS)
         self.create_subscription(Vector3Stamped, T.REWARD, self._on_reward, FRAME_QOS)
         if self.obs_dim == 8:
@@ -134,6 +144,7 @@ class StnsAgentNode(Node):
 
         self._pending: dict[int, dict] = {}
         self._last_t = -1
+        self._clock_ns = -1  # latest /clock of the simulator
         self._last_answer: bytes | None = None
         self._cmd = TwistStamped()
         self._cmd.header.frame_id = "base_link"
@@ -147,7 +158,8 @@ class StnsAgentNode(Node):
         self._t_first = None
         self._t_done = None
         self.frames = 0
-        self.rejected_frames = 0  # frames with a non-finite reading: not learned from
+        self.rejected_frames = 0  # frames with a non-finite or missing reading: not learned from
+        self.refused_stamps = 0  # messages stamped too far ahead of /clock: dropped
         self.ticks = 0
         self.create_timer(p["watchdog_timeout"] / 2.0, self._watchdog, clock=steady)
         self.get_logger().info(
@@ -169,7 +181,26 @@ class StnsAgentNode(Node):
             if t == self._last_t and self._last_answer is not None:
                 self.pub_cmd.publish(self._last_answer)  # the sim re-sent a frame we answered
             return None
+        if t > self._clock_ns + max(MAX_AHEAD_NS, self.tick_ns):
+            self.refused_stamps += 1
+            self.get_logger().error(
+                f"message stamped {t} ns is {(t - self._clock_ns) / 1e9:.3f} s ahead of /clock "
+                f"({self._clock_ns} ns): not from the simulator's current frame; dropped",
+                throttle_duration_sec=5.0)
+            return None
+        if t not in self._pending and len(self._pending) >= MAX_HELD:
+            del self._pending[min(self._pending)]
         return self._pending.setdefault(t, {})
+
+    def _on_clock(self, msg: ClockMsg) -> None:
+        t = stamp_ns(msg.clock)
+        if t <= self._clock_ns:
+            return
+        self._clock_ns = t
+        for held in sorted(k for k in self._pending if k <= t):
+            slot = self._pending.get(held)
+            if slot is not None:
+                self._try(held, slot)
 
     def _on_goal(self, msg: PointStamped) -> None:
         t = stamp_ns(msg.header.stamp)
@@ -197,7 +228,7 @@ class StnsAgentNode(Node):
             return
         if self.obs_dim == 8 and "ranges" not in slot:
             return
-        if self.done:
+        if self.done or t > self._clock_ns:  # held until /clock reaches the frame
             return
         if self.params["wait_for_recorder"] and self.pub_steps.get_subscription_count() == 0:
             return  # the simulator re-sends the frame; nothing is lost
@@ -207,6 +238,10 @@ class StnsAgentNode(Node):
         gx, gy = slot["goal"]
         obs = [m_to_u(gx), m_to_u(gy)]
         if self.obs_dim == 8:
+            if len(slot["ranges"]) != self.obs_dim - 2:
+                self._reject_frame(t, f"{T.RANGES} has {len(slot['ranges'])} ranges, "
+                                      f"expected {self.obs_dim - 2}")
+                return
             obs.extend(m_to_u(r) for r in slot["ranges"])
         reward, terminated = slot["reward"]
         bad = [(name, val) for name, val in zip(self._obs_names(), obs, strict=True)
@@ -214,7 +249,8 @@ class StnsAgentNode(Node):
         if not math.isfinite(reward):
             bad.append(("reward", reward))
         if bad:
-            self._reject_frame(t, bad)
+            what = ", ".join(f"{name}={val!r}" for name, val in bad)
+            self._reject_frame(t, f"non-finite reading {what}")
             return
         self._last_frame_wall = self._steady.now()
         if self._t_first is None:
@@ -252,13 +288,12 @@ class StnsAgentNode(Node):
         names = ["goal.x", "goal.y"]
         return names + [f"ranges[{i}]" for i in range(self.obs_dim - 2)]
 
-    def _reject_frame(self, t: int, bad: list[tuple[str, float]]) -> None:
-        """A frame with NaN/inf never reaches the learner; the rover stops for that tick."""
+    def _reject_frame(self, t: int, why: str) -> None:
+        """A frame with NaN/inf or a wrong number of ranges never reaches the learner; the
+        rover stops for that tick."""
         self.rejected_frames += 1
-        what = ", ".join(f"{name}={val!r}" for name, val in bad)
         self.get_logger().error(
-            f"frame at stamp {t} ns rejected: non-finite reading {what}; rover stopped, "
-            "nothing learned from it")
+            f"frame at stamp {t} ns rejected: {why}; rover stopped, nothing learned from it")
         stop = TwistStamped()
         stop.header.frame_id = "invalid_input"
         set_stamp(stop.header.stamp, t)

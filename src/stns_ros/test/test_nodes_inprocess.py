@@ -159,6 +159,7 @@ def test_agent_answers_a_frame_and_its_watchdog_stops_the_rover(rclpy_context):
         goal.point.x, goal.point.y = 1.0, -0.5
         reward = Vector3Stamped()
         reward.header.stamp.sec = 3
+        _tick(agent, 3)
         agent._on_goal(goal)
         assert agent.frames == 0  # waits for the reward of the same stamp
         agent._on_reward(reward)
@@ -200,6 +201,7 @@ def test_agent_rejects_a_frame_with_nan_and_stops_the_rover(rclpy_context):
             goal.point.x, goal.point.y = x, -0.5
             reward = Vector3Stamped()
             reward.header.stamp.sec = sec
+            _tick(agent, sec)
             agent._on_goal(goal)
             agent._on_reward(reward)
 
@@ -221,6 +223,15 @@ def test_agent_rejects_a_frame_with_nan_and_stops_the_rover(rclpy_context):
         agent.close()
         agent.destroy_node()
         probe.destroy_node()
+
+
+def _tick(agent, sec: int) -> None:
+    """The simulator's /clock for the frame of second `sec` (it comes before the frame)."""
+    from rosgraph_msgs.msg import Clock
+
+    msg = Clock()
+    msg.clock.sec = sec
+    agent._on_clock(msg)
 
 
 def _wait_for_subscriber(ex, publisher) -> None:
@@ -251,6 +262,7 @@ def test_agent_checkpoints_the_learner_while_it_runs(rclpy_context, tmp_path):
             reward.header.stamp.sec = sec
             if sec % 5 == 0:  # a goal arrival ends the behaviour step
                 reward.vector.x, reward.vector.y = 1.0, 1.0
+            _tick(agent, sec)
             agent._on_goal(goal)
             agent._on_reward(reward)
             if agent.run_steps < 2:
@@ -259,3 +271,68 @@ def test_agent_checkpoints_the_learner_while_it_runs(rclpy_context, tmp_path):
         assert StnsAgent.load(state).behaviour_steps == agent.run_steps
     finally:
         agent.destroy_node()  # no close(): as if killed, the checkpoint is all there is
+
+
+def _frame_msgs(sec: int, x: float = 1.0, ranges: int | None = None):
+    """goal, reward (and a LaserScan of `ranges` values) stamped at second `sec`."""
+    from geometry_msgs.msg import PointStamped, Vector3Stamped
+    from sensor_msgs.msg import LaserScan
+
+    goal = PointStamped()
+    goal.header.stamp.sec = sec
+    goal.point.x, goal.point.y = x, -0.5
+    reward = Vector3Stamped()
+    reward.header.stamp.sec = sec
+    if ranges is None:
+        return goal, reward
+    scan = LaserScan()
+    scan.header.stamp.sec = sec
+    scan.ranges = [1.0] * ranges
+    return goal, reward, scan
+
+
+def test_agent_rejects_a_scan_with_the_wrong_number_of_ranges(rclpy_context):
+    from stns_ros.agent_node import StnsAgentNode
+
+    agent = StnsAgentNode(parameter_overrides=[
+        Parameter("learner_preset", value="exp3"), Parameter("world_preset", value="exp3")])
+    try:
+        assert agent.obs_dim == 8
+        for sec, n in ((3, 3), (4, 6)):
+            goal, reward, scan = _frame_msgs(sec, ranges=n)
+            _tick(agent, sec)
+            agent._on_goal(goal)
+            agent._on_ranges(scan)
+            agent._on_reward(reward)
+        # the three-range frame is refused and the node goes on; the next one is learned from
+        assert agent.rejected_frames == 1 and agent.frames == 1
+    finally:
+        agent.close()
+        agent.destroy_node()
+
+
+def test_agent_holds_a_frame_until_its_clock_and_drops_one_far_ahead(rclpy_context):
+    """A frame stamped far in the future (a second publisher, a replayed bag) must not be
+    learned from: every real frame after it would look old and a lockstep run would stall."""
+    from stns_ros.agent_node import StnsAgentNode
+
+    agent = StnsAgentNode()
+    try:
+        _tick(agent, 3)
+        goal, reward = _frame_msgs(103)  # 1000 ticks ahead of /clock
+        agent._on_goal(goal)
+        agent._on_reward(reward)
+        assert agent.frames == 0 and agent.refused_stamps == 2
+        goal, reward = _frame_msgs(3)
+        agent._on_goal(goal)
+        agent._on_reward(reward)
+        assert agent.frames == 1  # the real frame still is the next one
+        goal, reward = _frame_msgs(4)  # its /clock is still on the way: held
+        agent._on_goal(goal)
+        agent._on_reward(reward)
+        assert agent.frames == 1 and agent.refused_stamps == 2
+        _tick(agent, 4)
+        assert agent.frames == 2  # learned from when the clock reached it
+    finally:
+        agent.close()
+        agent.destroy_node()
