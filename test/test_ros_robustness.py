@@ -132,3 +132,26 @@ def test_nodes_refuse_bad_parameters(exe, module, args, message):
                          text=True, env=env, timeout=60)
     assert res.returncode != 0
     assert message in res.stderr, res.stderr
+
+
+@pytest.mark.parametrize(("steps", "rc"), [(1000, 130), (0, 0)])
+def test_an_agent_stopped_before_its_last_step_exits_non_zero(tmp_path, steps, rc):
+    """Ctrl-C before max_behaviour_steps is not a finished run; an unlimited run ends so."""
+    env = dict(os.environ, ROS_DOMAIN_ID=str(DOMAIN))
+    log = tmp_path / "agent.log"
+    with open(log, "w") as f:
+        proc = subprocess.Popen(
+            command("stns_agent_node", "stns_ros.agent_node")
+            + ["--ros-args", "-p", f"max_behaviour_steps:={steps}"],
+            stdout=f, stderr=subprocess.STDOUT, env=env)
+        deadline = time.monotonic() + 60
+        while "stns_agent ready" not in log.read_text() and time.monotonic() < deadline:
+            assert proc.poll() is None, log.read_text()
+            time.sleep(0.1)
+        proc.send_signal(signal.SIGINT)
+        assert proc.wait(30) == rc, log.read_text()
+    text = log.read_text()
+    if rc:
+        assert "stns_agent_node: stopped before the end: 0 of 1000 behaviour steps made" in text
+    else:
+        assert "stopped before the end" not in text

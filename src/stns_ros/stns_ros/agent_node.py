@@ -435,8 +435,15 @@ def situation_markers(info: dict, t: int) -> MarkerArray:
     return arr
 
 
+def _unfinished(node: StnsAgentNode) -> str | None:
+    if not node.max_steps:
+        return None  # an unlimited run ends by being stopped
+    return f"{node.run_steps} of {node.max_steps} behaviour steps made"
+
+
 def main(args=None) -> None:
-    run_node("stns_agent_node", StnsAgentNode, args, done=lambda node: node.done)
+    run_node("stns_agent_node", StnsAgentNode, args, done=lambda node: node.done,
+             unfinished=_unfinished)
 
 
 if __name__ == "__main__":

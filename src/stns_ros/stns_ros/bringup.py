@@ -116,6 +116,16 @@ class Bringup:
         for log in self.logs.values():
             log.close()
 
+    def exit_reason(self, name: str) -> str | None:
+        """The last line a node wrote about why it ended ("stns_agent_node: ..."), if any."""
+        try:
+            lines = (self.out / "logs" / f"{name}.log").read_text(errors="replace").splitlines()
+        except OSError:
+            return None
+        prefix = f"{name}_node: "
+        found = [ln[len(prefix):] for ln in lines if ln.startswith(prefix)]
+        return found[-1] if found else None
+
     def progress(self, total: int) -> str | None:
         try:
             text = (self.out / "logs" / "stns_agent.log").read_text(errors="replace")
@@ -146,8 +156,10 @@ def run(cfg: dict, out: Path, quiet: bool = False) -> int:
             if agent_rc is not None:
                 if agent_rc != 0:
                     rc = 1
-                    sys.stderr.write(f"stns_bringup: stns_agent_node exited with {agent_rc}; "
-                                     f"see {out / 'logs' / 'stns_agent.log'}\n")
+                    why = b.exit_reason("stns_agent")
+                    sys.stderr.write(f"stns_bringup: stns_agent_node exited with {agent_rc}"
+                                     + (f" ({why})" if why else "")
+                                     + f"; see {out / 'logs' / 'stns_agent.log'}\n")
                     state = out / "learner_state"
                     if cfg["learner"]["save_state"] and state.exists():
                         sys.stderr.write(f"stns_bringup: its last checkpoint is kept: {state}\n")

@@ -54,7 +54,8 @@ def _rcl_reason(e: Exception) -> str:
 
 def run_node(name: str, make_node: Callable[[], Node], args: list[str] | None = None,
              done: Callable[[Node], bool] = lambda node: False,
-             drain_seconds: float = 0.0) -> None:
+             drain_seconds: float = 0.0,
+             unfinished: Callable[[Node], str | None] = lambda node: None) -> None:
     """The ``main`` of every node: init, spin until Ctrl-C/SIGTERM or ``done``, clean up.
 
     ``drain_seconds`` > 0 (the recorder): Ctrl-C/SIGTERM only ask the node to stop; it spins
@@ -62,6 +63,8 @@ def run_node(name: str, make_node: Callable[[], Node], args: list[str] | None = 
     publishers) still reach the callbacks before ``close``. rclpy's own handler would shut
     the context down at once and drop them.
     A configuration error (bad parameter, bad scenario) exits with its message, no traceback.
+    A node stopped (Ctrl-C, SIGTERM) before ``done`` for which ``unfinished`` names what was
+    left undone exits with 130 and that text: a run cut short must not look finished.
     """
     stop: list[int] = []
     try:
@@ -76,6 +79,7 @@ def run_node(name: str, make_node: Callable[[], Node], args: list[str] | None = 
     except RCLError as e:  # a --params-file rcl cannot parse, a bad --ros-args
         sys.exit(f"{name}: cannot start: {_rcl_reason(e)}")
     node = None
+    cut_short = None
     try:
         node = make_node()
         spin(node, lambda: bool(stop) or done(node))
@@ -88,8 +92,13 @@ def run_node(name: str, make_node: Callable[[], Node], args: list[str] | None = 
         sys.exit(f"{name}: {e}")
     finally:
         if node is not None:
+            if not done(node):
+                cut_short = unfinished(node)
             close = getattr(node, "close", None)
             if close is not None:
                 close()
             node.destroy_node()
         rclpy.try_shutdown()
+    if cut_short:
+        sys.stderr.write(f"{name}: stopped before the end: {cut_short}\n")
+        sys.exit(130)
