@@ -161,7 +161,9 @@ class StnsAgentNode(Node):
         self.rejected_frames = 0  # frames with a non-finite or missing reading: not learned from
         self.refused_stamps = 0  # messages stamped too far ahead of /clock: dropped
         self.ticks = 0
-        self.create_timer(p["watchdog_timeout"] / 2.0, self._watchdog, clock=steady)
+        self._watchdog_timer = self.create_timer(p["watchdog_timeout"] / 2.0, self._watchdog,
+                                                 clock=steady)
+        self.add_post_set_parameters_callback(self._applied)
         self.get_logger().info(
             f"stns_agent ready: learner {p['learner_preset']} seed={p['seed']} "
             f"obs_dim={self.obs_dim} steps={self.max_steps or 'unlimited'}"
@@ -174,6 +176,18 @@ class StnsAgentNode(Node):
             ):
                 return result(f"watchdog_timeout must be in [0.05, 60] s, got {prm.value!r}")
         return result(None)
+
+    def _applied(self, params: list[Parameter]) -> None:
+        """Tuning parameters take effect at once (the others are read-only)."""
+        for prm in params:
+            if prm.name in TUNING["stns_agent"]:
+                self.params[prm.name] = prm.value
+                if prm.name == "watchdog_timeout":
+                    self._watchdog_timer.cancel()
+                    self.destroy_timer(self._watchdog_timer)
+                    self._watchdog_timer = self.create_timer(prm.value / 2.0, self._watchdog,
+                                                             clock=self._steady)
+                self.get_logger().info(f"{prm.name} = {prm.value!r}")
 
     # ---------------------------------------------------------------- frames
     def _slot(self, t: int) -> dict | None:

@@ -20,8 +20,12 @@ from stns_ros import topics as T
 from stns_ros.driver import dumps
 from stns_ros.errors import StnsRosError
 from stns_ros.faults import FaultScenario, ScenarioClock, load_scenario, parse_scenario, ramp_points
-from stns_ros.params import FAULT_NEUTRAL, declare, declare_tuning
+from stns_ros.params import FAULT_NEUTRAL, declare, declare_tuning, result
 from stns_ros.runtime import run_node
+
+# On wall time every at_time trigger (seconds since the epoch) would fire at once.
+SIM_TIME_NEEDED = ("use_sim_time must be true: at_time triggers and the stamps of "
+                   "/fault_injector/events follow the simulator's /clock")
 
 
 class FaultInjectorNode(Node):
@@ -43,6 +47,9 @@ class FaultInjectorNode(Node):
                 raise StnsRosError(f"scenario_json is not JSON: {e}") from None
         else:
             self.scenario = FaultScenario("none")
+        if not self.get_parameter("use_sim_time").value:
+            raise StnsRosError(SIM_TIME_NEEDED + "; got use_sim_time false")
+        self.add_on_set_parameters_callback(self._validate)
         self.clock_state = ScenarioClock(self.scenario)
         self.values = dict(FAULT_NEUTRAL)
         self.steps = 0
@@ -57,6 +64,12 @@ class FaultInjectorNode(Node):
         self.get_logger().info(
             f"fault scenario {self.scenario.name!r}: "
             + ("; ".join(e.describe() for e in self.scenario.faults) or "no faults"))
+
+    def _validate(self, params: list[Parameter]):
+        for prm in params:
+            if prm.name == "use_sim_time" and prm.value is not True:
+                return result(f"{SIM_TIME_NEEDED}; got {prm.value!r}")
+        return result(None)
 
     def _sim_time(self) -> float:
         return self.get_clock().now().nanoseconds / 1e9

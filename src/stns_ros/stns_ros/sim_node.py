@@ -183,6 +183,15 @@ class RoverSimNode(Node):
             if prm.name in FAULT_PARAMS:
                 self._apply_fault(prm.name, prm.value)
                 self.get_logger().info(f"fault {prm.name} = {prm.value} at frame {self.frame}")
+            elif prm.name == "publish_ranges":
+                self.publish_ranges = bool(prm.value) or self.world.observation_dim == 8
+            elif prm.name == "resend_period":
+                self.params["resend_period"] = prm.value
+                if self.lockstep:
+                    self._resend_timer.cancel()
+                    self.destroy_timer(self._resend_timer)
+                    self._resend_timer = self.create_timer(
+                        prm.value, self._resend, clock=Clock(clock_type=ClockType.STEADY_TIME))
             elif prm.name == "real_time_factor" and not self.lockstep:
                 self._step_timer.cancel()
                 self._step_timer = self.create_timer(

@@ -336,3 +336,38 @@ def test_agent_holds_a_frame_until_its_clock_and_drops_one_far_ahead(rclpy_conte
     finally:
         agent.close()
         agent.destroy_node()
+
+
+def test_tuning_parameters_set_while_running_take_effect(rclpy_context, sim):
+    from stns_ros.agent_node import StnsAgentNode
+
+    agent = StnsAgentNode()
+    try:
+        for name, value in (("progress_every", 7), ("explain_every", 3), ("markers_every", 5),
+                            ("checkpoint_every", 9), ("watchdog_timeout", 2.0)):
+            assert agent.set_parameters([Parameter(name, value=value)])[0].successful
+            assert agent.params[name] == value
+        assert agent._watchdog_timer.timer_period_ns == 1_000_000_000  # half the timeout
+    finally:
+        agent.close()
+        agent.destroy_node()
+    assert sim.publish_ranges
+    assert sim.set_parameters([Parameter("publish_ranges", value=False)])[0].successful
+    assert not sim.publish_ranges
+    assert sim.set_parameters([Parameter("resend_period", value=0.5)])[0].successful
+    assert sim._resend_timer.timer_period_ns == 500_000_000
+
+
+def test_fault_injector_refuses_wall_time(rclpy_context):
+    from stns_ros.errors import StnsRosError
+    from stns_ros.fault_injector_node import FaultInjectorNode
+
+    with pytest.raises(StnsRosError, match="use_sim_time must be true.*got use_sim_time false"):
+        FaultInjectorNode()
+    node = FaultInjectorNode(parameter_overrides=[Parameter("use_sim_time", value=True)])
+    try:
+        res = node.set_parameters([Parameter("use_sim_time", value=False)])[0]
+        assert not res.successful and "got False" in res.reason
+        assert node.get_parameter("use_sim_time").value is True
+    finally:
+        node.destroy_node()
