@@ -37,7 +37,14 @@ from stns_ros import topics as T
 from stns_ros.conversion import UNIT_M, m_to_u, set_stamp, stamp_ns, tick_ns
 from stns_ros.driver import AgentDriver, action_velocities, dumps, make_agent, record_to_dict
 from stns_ros.errors import StnsRosError
-from stns_ros.params import TUNING, check_choice, declare, declare_tuning, result
+from stns_ros.params import (
+    TUNING,
+    NamedRefusals,
+    check_choice,
+    declare,
+    declare_tuning,
+    result,
+)
 from stns_ros.runtime import run_node
 from stns_ros.sim_node import FRAME_QOS
 
@@ -58,7 +65,7 @@ def learner_fields() -> list[dataclasses.Field]:
     return list(dataclasses.fields(StnsConfig))
 
 
-class StnsAgentNode(Node):
+class StnsAgentNode(NamedRefusals, Node):
     def __init__(self, **kwargs) -> None:
         super().__init__("stns_agent", **kwargs)
         from stns_core import StnsConfig

@@ -20,7 +20,7 @@ from stns_ros import topics as T
 from stns_ros.driver import dumps
 from stns_ros.errors import StnsRosError
 from stns_ros.faults import FaultScenario, ScenarioClock, load_scenario, parse_scenario, ramp_points
-from stns_ros.params import FAULT_NEUTRAL, declare, declare_tuning, result
+from stns_ros.params import FAULT_NEUTRAL, NamedRefusals, declare, declare_tuning, result
 from stns_ros.runtime import run_node
 
 # On wall time every at_time trigger (seconds since the epoch) would fire at once.
@@ -28,7 +28,7 @@ SIM_TIME_NEEDED = ("use_sim_time must be true: at_time triggers and the stamps o
                    "/fault_injector/events follow the simulator's /clock")
 
 
-class FaultInjectorNode(Node):
+class FaultInjectorNode(NamedRefusals, Node):
     def __init__(self, **kwargs) -> None:
         super().__init__("fault_injector", **kwargs)
         path = declare(self, "scenario", "", "Fault scenario YAML file ('' = no faults).",

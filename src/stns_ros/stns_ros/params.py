@@ -13,6 +13,7 @@ from rcl_interfaces.msg import (
     ParameterDescriptor,
     SetParametersResult,
 )
+from rclpy.exceptions import ParameterNotDeclaredException
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 
@@ -82,6 +83,43 @@ TUNING: dict[str, dict[str, Tuning]] = {
             read_only=True),
     },
 }
+
+
+TYPE_WORDS = {
+    Parameter.Type.BOOL: "true or false",
+    Parameter.Type.INTEGER: "an integer",
+    Parameter.Type.DOUBLE: "a number with a decimal point",
+    Parameter.Type.STRING: "a string",
+    Parameter.Type.STRING_ARRAY: "a list of strings",
+}
+
+
+class NamedRefusals:
+    """Node mixin: rclpy's own refusals of a set_parameters call name the parameter and the
+    value ("Wrong parameter type, expected 'Type.DOUBLE' got 'Type.STRING'" names neither, and
+    its undeclared-parameter error loses the names). Hooks rclpy's (Jazzy) descriptor check."""
+
+    def _apply_descriptor(self, parameter: Parameter, descriptor=None, check_read_only=True):
+        res = super()._apply_descriptor(parameter, descriptor, check_read_only)
+        if res.successful:
+            return res
+        if res.reason.startswith("Trying to set a read-only parameter"):
+            res.reason = (f"{parameter.name} is read-only: it is set when the node starts, "
+                          f"not while it runs (got {parameter.value!r})")
+        elif res.reason.startswith("Wrong parameter type"):  # rclpy's declare tests this prefix
+            d = descriptor if descriptor is not None else self.describe_parameter(parameter.name)
+            want = Parameter.Type(d.type)
+            res.reason = (f"Wrong parameter type: {parameter.name} must be "
+                          f"{TYPE_WORDS.get(want, want.name)}, got {parameter.value!r}")
+        return res
+
+    def _check_undeclared_parameters(self, parameter_list: list[Parameter]) -> None:
+        unknown = [p.name for p in parameter_list
+                   if isinstance(p, Parameter) and p.name not in self._parameters]
+        if unknown and not self._allow_undeclared_parameters:
+            raise ParameterNotDeclaredException(
+                f"{', '.join(unknown)} (known: {', '.join(sorted(self._parameters))})")
+        super()._check_undeclared_parameters(parameter_list)
 
 
 def declare_tuning(node: Node, table: str, name: str) -> Any:

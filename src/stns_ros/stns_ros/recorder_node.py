@@ -14,12 +14,12 @@ from rclpy.node import Node
 
 from stns_ros import topics as T
 from stns_ros.errors import StnsRosError
-from stns_ros.params import declare
+from stns_ros.params import NamedRefusals, declare
 from stns_ros.recording import TopicRecorder
 from stns_ros.runtime import run_node
 
 
-class RecorderNode(Node):
+class RecorderNode(NamedRefusals, Node):
     def __init__(self, **kwargs) -> None:
         super().__init__("stns_recorder", **kwargs)
         output = declare(self, "output", "", "rosbag2 directory to create.", read_only=True)

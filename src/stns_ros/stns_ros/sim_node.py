@@ -17,6 +17,7 @@ import math
 
 from geometry_msgs.msg import PointStamped, TwistStamped, Vector3Stamped
 from nav_msgs.msg import Odometry
+from rclpy._rclpy_pybind11 import RCLError
 from rclpy.clock import Clock, ClockType
 from rclpy.node import Node
 from rclpy.parameter import Parameter
@@ -31,6 +32,7 @@ from stns_ros.conversion import UNIT_M, m_to_u, set_stamp, stamp_ns, tick_ns, ya
 from stns_ros.errors import StnsRosError
 from stns_ros.params import (
     FAULT_PARAMS,
+    NamedRefusals,
     check_choice,
     check_fault,
     declare,
@@ -44,7 +46,7 @@ MODES = ("lockstep", "free_running")
 FRAME_QOS = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE)
 
 
-class RoverSimNode(Node):
+class RoverSimNode(NamedRefusals, Node):
     def __init__(self, **kwargs) -> None:
         super().__init__("rover_sim", **kwargs)
         from rover_sim import RoverSimError, RoverWorld, WorldConfig
@@ -240,8 +242,13 @@ class RoverSimNode(Node):
         out.append((self.pub_reward, T.REWARD, serialize_message(r)))
         self._terminated = bool(terminated)
         self._frame_data = [(pub, data) for pub, _, data in out]
-        for pub, _, data in out:
-            pub.publish(data)
+        try:
+            for pub, _, data in out:
+                pub.publish(data)
+        except RCLError:
+            if self.context.ok():
+                raise
+            return  # Ctrl-C shut the context while an answer was handled: the run is over
         if self.recorder:  # after publishing: the agent works meanwhile
             for _, topic, data in out:
                 self.recorder.write(topic, data, t)

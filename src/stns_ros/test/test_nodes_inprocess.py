@@ -371,3 +371,42 @@ def test_fault_injector_refuses_wall_time(rclpy_context):
         assert node.get_parameter("use_sim_time").value is True
     finally:
         node.destroy_node()
+
+
+def test_rclpy_refusals_name_the_parameter_and_the_value(sim):
+    from rclpy.exceptions import ParameterNotDeclaredException
+
+    res = sim.set_parameters([Parameter("left_wheel_gain", value="fast")])[0]
+    assert not res.successful
+    assert res.reason == ("Wrong parameter type: left_wheel_gain must be a number with a "
+                          "decimal point, got 'fast'")
+    res = sim.set_parameters([Parameter("seed", value=5)])[0]
+    assert not res.successful
+    assert res.reason.startswith("seed is read-only") and "(got 5)" in res.reason
+    with pytest.raises(ParameterNotDeclaredException, match=r"left_wheel_gian \(known: .*"
+                                                            r"left_wheel_gain"):
+        sim.set_parameters([Parameter("left_wheel_gian", value=0.9)])
+    assert sim.world.faults["left_wheel_gain"] == 1.0  # nothing applied
+
+
+def test_a_start_parameter_of_the_wrong_type_is_still_refused(rclpy_context):
+    from rclpy.exceptions import InvalidParameterTypeException
+    from stns_ros.sim_node import RoverSimNode
+
+    with pytest.raises(InvalidParameterTypeException):
+        RoverSimNode(parameter_overrides=[Parameter("seed", value="three")])
+
+
+def test_the_simulator_stepping_after_ctrl_c_does_not_raise(rclpy_context):
+    """An answer handled while SIGINT shuts the context used to end in a FATAL traceback."""
+    import rclpy
+    from stns_ros.sim_node import RoverSimNode
+
+    node = RoverSimNode()
+    try:
+        rclpy.shutdown()
+        node._advance()  # publishing on the shut context: the frame is dropped quietly
+        assert node.frame == 1
+    finally:
+        node.close()
+        node.destroy_node()
