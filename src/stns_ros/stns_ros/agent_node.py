@@ -126,7 +126,7 @@ class StnsAgentNode(NamedRefusals, Node):
 
         world = WorldConfig.preset(p["world_preset"], **overrides)
         self.obs_dim = world.observation_dim
-        self.tick_ns = tick_ns(world.tick_seconds)
+        self._max_ahead_ns = max(MAX_AHEAD_NS, tick_ns(world.tick_seconds))
         from stns_core import StnsError
 
         try:
@@ -202,7 +202,7 @@ class StnsAgentNode(NamedRefusals, Node):
             if t == self._last_t and self._last_answer is not None:
                 self.pub_cmd.publish(self._last_answer)  # the sim re-sent a frame we answered
             return None
-        if t > self._clock_ns + max(MAX_AHEAD_NS, self.tick_ns):
+        if t > self._clock_ns + self._max_ahead_ns:
             self.refused_stamps += 1
             self.get_logger().error(
                 f"message stamped {t} ns is {(t - self._clock_ns) / 1e9:.3f} s ahead of /clock "

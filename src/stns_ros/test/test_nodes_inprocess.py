@@ -181,7 +181,7 @@ def test_agent_answers_a_frame_and_its_watchdog_stops_the_rover(rclpy_context):
 
 def test_agent_rejects_a_frame_with_nan_and_stops_the_rover(rclpy_context):
     import rclpy
-    from geometry_msgs.msg import PointStamped, TwistStamped, Vector3Stamped
+    from geometry_msgs.msg import TwistStamped
     from stns_ros.agent_node import StnsAgentNode
     from stns_ros.sim_node import FRAME_QOS
 
@@ -196,11 +196,7 @@ def test_agent_rejects_a_frame_with_nan_and_stops_the_rover(rclpy_context):
         _wait_for_subscriber(ex, agent.pub_cmd)
 
         def frame(sec: int, x: float) -> None:
-            goal = PointStamped()
-            goal.header.stamp.sec = sec
-            goal.point.x, goal.point.y = x, -0.5
-            reward = Vector3Stamped()
-            reward.header.stamp.sec = sec
+            goal, reward = _frame_msgs(sec, x)
             _tick(agent, sec)
             agent._on_goal(goal)
             agent._on_reward(reward)
@@ -243,7 +239,6 @@ def _wait_for_subscriber(ex, publisher) -> None:
 
 def test_agent_checkpoints_the_learner_while_it_runs(rclpy_context, tmp_path):
     """A killed agent keeps what it learned up to its last checkpoint."""
-    from geometry_msgs.msg import PointStamped, Vector3Stamped
     from stns_ros.agent_node import StnsAgentNode
 
     from stns_core import StnsAgent
@@ -255,11 +250,7 @@ def test_agent_checkpoints_the_learner_while_it_runs(rclpy_context, tmp_path):
         sec = 0
         while agent.run_steps < 2 and sec < 100:
             sec += 1
-            goal = PointStamped()
-            goal.header.stamp.sec = sec
-            goal.point.x, goal.point.y = 1.0, -0.5
-            reward = Vector3Stamped()
-            reward.header.stamp.sec = sec
+            goal, reward = _frame_msgs(sec)
             if sec % 5 == 0:  # a goal arrival ends the behaviour step
                 reward.vector.x, reward.vector.y = 1.0, 1.0
             _tick(agent, sec)
