@@ -39,13 +39,16 @@ def test_bag_opens_in_rosbags_and_mcap_ros2_with_counts_of_the_summary(plain_run
     assert counts[T.GOAL] == counts[T.REWARD] == counts[T.CLOCK] == counts[T.ODOM] == summary["frames"]
     assert counts[T.CMD_VEL] == summary["frames"] - 1  # the last frame is not answered
 
-    from mcap_ros2.reader import read_ros2_messages
+    from mcap.reader import make_reader
+    from mcap_ros2.decoder import DecoderFactory
 
     mcounts = {}
-    for m in read_ros2_messages(str(plain_run / "bag" / "bag.mcap")):
-        mcounts[m.channel.topic] = mcounts.get(m.channel.topic, 0) + 1
-        if m.channel.topic == T.REWARD:
-            assert m.ros_msg.header.stamp.sec * 10**9 + m.ros_msg.header.stamp.nanosec == m.log_time_ns
+    with open(plain_run / "bag" / "bag.mcap", "rb") as f:
+        reader = make_reader(f, decoder_factories=[DecoderFactory()])
+        for _, channel, message, msg in reader.iter_decoded_messages():
+            mcounts[channel.topic] = mcounts.get(channel.topic, 0) + 1
+            if channel.topic == T.REWARD:
+                assert msg.header.stamp.sec * 10**9 + msg.header.stamp.nanosec == message.log_time
     assert mcounts == {k: v for k, v in counts.items() if v}
 
 

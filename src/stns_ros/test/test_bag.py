@@ -69,9 +69,12 @@ def test_round_trip_with_three_readers(tmp_path):
             last = reader.deserialize(raw, conn.msgtype) if conn.topic == "/cmd_vel" else last
         assert last.twist.linear.x == 499.0
 
-    from mcap_ros2.reader import read_ros2_messages
+    from mcap.reader import make_reader
+    from mcap_ros2.decoder import DecoderFactory
 
-    got = [m.ros_msg for m in read_ros2_messages(str(tmp_path / "b" / "b.mcap"), topics=["/note"])]
+    with open(tmp_path / "b" / "b.mcap", "rb") as f:
+        reader = make_reader(f, decoder_factories=[DecoderFactory()])
+        got = [msg for *_, msg in reader.iter_decoded_messages(topics=["/note"])]
     assert [m.data for m in got] == [f"n{i}" for i in range(0, 500, 100)]
 
 
