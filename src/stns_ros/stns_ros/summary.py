@@ -187,7 +187,8 @@ def write_plots(run: RunData, summary: dict[str, Any], out_dir: str | os.PathLik
     ax.set_ylabel("behaviour steps to goal")
     ax.set_title(f"{summary['experiment']}: learning curve (from the bag)")
     ax.grid(alpha=0.3)
-    ax.legend(loc="upper right", fontsize=8)
+    if ax.get_legend_handles_labels()[0]:  # a bag without steps or odometry has none
+        ax.legend(loc="upper right", fontsize=8)
     p = out / "learning_curve.png"
     fig.tight_layout()
     fig.savefig(p, dpi=110)
@@ -210,7 +211,8 @@ def write_plots(run: RunData, summary: dict[str, Any], out_dir: str | os.PathLik
     ax.set_xlabel("x (u = 1/16 m)")
     ax.set_ylabel("y (u)")
     ax.set_title("rover trajectory (odometry; gaps = re-placed)")
-    ax.legend(loc="upper right", fontsize=8)
+    if ax.get_legend_handles_labels()[0]:  # a bag without steps or odometry has none
+        ax.legend(loc="upper right", fontsize=8)
     p = out / "trajectory.png"
     fig.tight_layout()
     fig.savefig(p, dpi=110)
