@@ -50,12 +50,20 @@ def _libs():
     return rover_sim, stns_core
 
 
-def make_world(params: dict, seed: int):
+def world_config(params: dict):
+    """The run's ``WorldConfig`` (no pybullet world is made)."""
     rover_sim, _ = _libs()
     w = params["world"]
     try:
-        cfg = rover_sim.WorldConfig.preset(w["preset"], **w["overrides"])
-        return rover_sim.RoverWorld(cfg, seed=int(seed))
+        return rover_sim.WorldConfig.preset(w["preset"], **w["overrides"])
+    except (rover_sim.RoverSimError, TypeError) as e:
+        raise ExperimentError(f"world: {e}") from None
+
+
+def make_world(params: dict, seed: int):
+    rover_sim, _ = _libs()
+    try:
+        return rover_sim.RoverWorld(world_config(params), seed=int(seed))
     except rover_sim.RoverSimError as e:
         raise ExperimentError(f"world: {e}") from None
 
@@ -77,12 +85,8 @@ def make_agent(params: dict, seed: int, obs_dim: int):
 
 def check_params(params: dict) -> None:
     """Build one world config and one agent config to validate presets and overrides."""
-    rover_sim, _ = _libs()
     w = params["world"]
-    try:
-        cfg = rover_sim.WorldConfig.preset(w["preset"], **w["overrides"])
-    except (rover_sim.RoverSimError, TypeError) as e:
-        raise ExperimentError(f"world: {e}") from None
+    cfg = world_config(params)
     if params.get("range_edges") and cfg.observation_dim != 8:
         raise ExperimentError(
             f"range_edges {params['range_edges']!r} grid the range sensor's sectors, but world "

@@ -28,6 +28,7 @@ from stns_experiments.experiments import (
     random_summary,
     situations_of,
     summarise_sets,
+    world_config,
 )
 from stns_experiments.pool import read_set
 from stns_experiments.report import read_json
@@ -345,8 +346,15 @@ def _check_base_configs(p: dict, states: list[Path]) -> None:
     from-scratch learners take this run's; refuse states saved with other agent settings (the
     per-set seed aside) rather than compare two different learners."""
     want = dataclasses.asdict(make_agent_config(p, 0))
+    dim = world_config(p).observation_dim
     for st in states:
-        got = dataclasses.asdict(load_agent(st).config)
+        agent = load_agent(st)
+        if agent.obs_dim != dim:  # else every relearning task dies at its first observation
+            raise ExperimentError(
+                f"--from: learner state {str(st)!r} takes {agent.obs_dim}-D inputs, but world "
+                f"preset {p['world']['preset']!r} gives {dim}-D ones; use states of a run on "
+                "the same world")
+        got = dataclasses.asdict(agent.config)
         diff = [f"{k}={got.get(k)!r} (state) vs {want[k]!r} (this run)"
                 for k in sorted(want) if k != "seed" and got.get(k) != want[k]]
         if diff:

@@ -83,6 +83,22 @@ def test_from_refuses_states_saved_with_other_agent_settings(tmp_path, capsys):
     assert not (tmp_path / "again" / "summary.json").exists()
 
 
+def test_from_refuses_states_of_another_input_size(tmp_path, capsys):
+    """Learner states of 8-D inputs (an Exp. 3 learner) on the 2-D Exp. 2 world: the agent
+    settings may match, the input size does not; refused before any task runs."""
+    from stns_core import StnsAgent, StnsConfig
+    (tmp_path / "exp3" / "states").mkdir(parents=True)
+    StnsAgent(StnsConfig.preset("exp3"), obs_dim=8, n_behaviours=4).save(
+        tmp_path / "exp3" / "states" / "set00.npz")
+    argv = ["exp2-sensor", "--steps", "50", "--levels", "20", "--no-figures", "--from",
+            str(tmp_path / "exp3"), "--set", "agent.preset=exp3",
+            "--out", str(tmp_path / "again")] + SMALL
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert "set00.npz' takes 8-D inputs, but world preset 'exp1' gives 2-D ones" in err
+    assert not (tmp_path / "again" / "summary.json").exists()
+
+
 def test_smoke_exp3(tmp_path):
     _, s = _run(tmp_path, ["exp3", "--steps", "100", "--no-figures"] + SMALL)
     assert s["experiment"] == "exp3"
