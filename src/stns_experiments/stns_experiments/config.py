@@ -246,6 +246,9 @@ def load_yaml(path: Path) -> dict[str, Any]:
         text = path.read_text()
     except OSError as e:
         raise ExperimentError(f"cannot read config file {str(path)!r}: {e.strerror}") from None
+    except UnicodeDecodeError as e:  # a UTF-16 or binary file: YAML never sees it
+        raise ExperimentError(f"config file {str(path)!r} is not UTF-8 text: byte "
+                              f"0x{e.object[e.start]:02x} at offset {e.start}") from None
     try:
         data = yaml.safe_load(text)
     except yaml.YAMLError as e:

@@ -58,6 +58,14 @@ def test_bad_yaml_values_name_the_value(tmp_path, text, match):
     assert "<unicode string>" not in str(e.value)  # a YAML error points into the file itself
 
 
+def test_a_config_file_that_is_not_text_is_named(tmp_path):
+    f = tmp_path / "bin.yaml"
+    f.write_bytes(b"\xff\xfe\x00steps: 5\n")  # a UTF-16 file, or a binary one by mistake
+    with pytest.raises(ExperimentError, match=r"config file '.*bin.yaml' is not UTF-8 text: "
+                                              r"byte 0xff at offset 0"):
+        resolve("exp1", f)
+
+
 def test_exp2_and_grid_values_are_checked(tmp_path):
     f = tmp_path / "x.yaml"
     f.write_text("levels: [5, 120]\n")
