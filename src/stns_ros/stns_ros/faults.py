@@ -184,6 +184,9 @@ def read_yaml(path: Path, what: str) -> Any:
         text = path.read_text()
     except OSError as e:
         raise StnsRosError(f"cannot read {what} {str(path)!r}: {e.strerror}") from None
+    except UnicodeDecodeError as e:  # a UTF-16 or binary file: YAML never sees it
+        raise StnsRosError(f"{what} {str(path)!r} is not UTF-8 text: byte "
+                           f"0x{e.object[e.start]:02x} at offset {e.start}") from None
     try:
         return yaml.safe_load(text)
     except yaml.YAMLError as e:

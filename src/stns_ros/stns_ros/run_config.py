@@ -31,7 +31,6 @@ from stns_ros.faults import (
     load_scenario,
     parse_scenario,
     read_yaml,
-    yaml_problem,
 )
 from stns_ros.params import FAULT_NEUTRAL, FAULT_PARAMS, TUNING, check_fault, check_tuning
 
@@ -194,12 +193,7 @@ def load_run_config(path: str | Path) -> dict[str, Any]:
 def load_node_params(path: str | Path) -> dict[str, dict[str, Any]]:
     """A ROS parameter file (``node: {ros__parameters: {...}}``) as {node: params}."""
     p = Path(path)
-    try:
-        data = yaml.safe_load(p.read_text())
-    except OSError as e:
-        raise StnsRosError(f"cannot read node parameter file {str(p)!r}: {e.strerror}") from None
-    except yaml.YAMLError as e:
-        raise StnsRosError(f"{p}: not valid YAML: {yaml_problem(e)}") from None
+    data = read_yaml(p, "node parameter file")
     out: dict[str, dict[str, Any]] = {}
     if not isinstance(data, Mapping):
         raise StnsRosError(f"{p}: a ROS parameter file must be a mapping, got {data!r}")

@@ -73,6 +73,20 @@ def test_bad_yaml_names_the_file(tmp_path):
         load_run_config(p)
 
 
+def test_a_file_that_is_not_text_is_named(tmp_path):
+    """A UTF-16 or binary file as run config, scenario or tuning file: one line naming it."""
+    binary = tmp_path / "bin.yaml"
+    binary.write_bytes(b"\xff\xfe\x00run: {}\n")
+    p = tmp_path / "run.yaml"
+    with pytest.raises(StnsRosError, match=r"run config '.*bin.yaml' is not UTF-8 text: byte "
+                                           r"0xff at offset 0$"):
+        load_run_config(binary)
+    for key, what in (("faults", "fault scenario"), ("nodes", "node parameter file")):
+        p.write_text(f"{key}: {binary}\n")
+        with pytest.raises(StnsRosError, match=rf"{what} '.*bin.yaml' is not UTF-8 text"):
+            load_run_config(p)
+
+
 def test_a_saved_learner_is_read_and_its_dimension_checked_before_the_run(tmp_path):
     from stns_core import StnsAgent, StnsConfig
 
