@@ -17,6 +17,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import signal
 import sys
 import time
 from pathlib import Path
@@ -104,16 +105,26 @@ def verify(run: RunData) -> str:
             f"{len(run.frames)} frames identical to a fresh agent's")
 
 
+def _raise_interrupt(signum, frame) -> None:
+    raise KeyboardInterrupt
+
+
 def republish(bag: Path, rate: float) -> int:
-    """Publish every message of the bag on its topic, paced by the recorded log times."""
+    """Publish every message of the bag on its topic, paced by the recorded log times.
+    Ctrl-C and SIGTERM stop it alike, also during a pacing sleep."""
     import rclpy
     from rclpy.qos import QoSProfile, ReliabilityPolicy
+    from rclpy.signals import SignalHandlerOptions
 
     from stns_ros import topics as T
     from stns_ros.bag import message_class, read_messages
     from stns_ros.recording import LATCHED_QOS
 
-    rclpy.init()
+    # rclpy's own SIGTERM handler only invalidates the context: the replay would sleep on
+    # and its next publish die with an RCLError traceback. SIGINT too, as rclpy did, even
+    # where it was ignored (a background job)
+    rclpy.init(signal_handler_options=SignalHandlerOptions.NO)
+    previous = {sig: signal.signal(sig, _raise_interrupt) for sig in (signal.SIGINT, signal.SIGTERM)}
     node = rclpy.create_node("stns_replay")
     pubs: dict[str, Any] = {}
     qos = QoSProfile(depth=100, reliability=ReliabilityPolicy.RELIABLE)
@@ -143,6 +154,8 @@ def republish(bag: Path, rate: float) -> int:
     except KeyboardInterrupt:
         pass
     finally:
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)
         node.destroy_node()
         rclpy.try_shutdown()
     return n

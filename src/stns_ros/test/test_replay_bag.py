@@ -85,3 +85,39 @@ def test_a_damaged_metadata_yaml_fails_verify_but_not_a_replay(tmp_path, capsys)
     assert rc == 1 and "verify: FAILED: " in out and "metadata.yaml' does not list" in out
     rc, out, err = replay(capsys, bag, "--no-publish")
     assert rc == 0 and "warning:" in err and "metadata.yaml' does not list" in err, out + err
+
+
+@pytest.mark.parametrize("sig", ["SIGTERM", "SIGINT"])
+def test_sigterm_stops_a_republish_as_ctrl_c_does(tmp_path, sig):
+    """`kill PID` (or `timeout`) of a replay: it stops within its pacing sleep, says how many
+    messages went out, no traceback (rclpy's own SIGTERM handler only invalidated the context:
+    the replay slept on, then its next publish died with an RCLError traceback)."""
+    import os
+    import select
+    import signal
+    import subprocess
+    import time
+
+    bag = tmp_path / "run" / "bag"
+    _write(bag)  # 505 messages over 500 ns of log time: at --rate 1e-9, over 500 s
+    p = subprocess.Popen([sys.executable, "-m", "stns_ros.replay", str(bag), "--rate", "1e-9"],
+                         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                         env={**os.environ, "MPLBACKEND": "Agg"})
+    try:
+        end, err = time.monotonic() + 60, ""
+        while "republishing" not in err and time.monotonic() < end and p.poll() is None:
+            if select.select([p.stderr], [], [], 1.0)[0]:
+                err += p.stderr.readline()
+        assert "republishing 505 messages" in err, err
+        time.sleep(0.5)  # into the first pacing sleep
+        p.send_signal(getattr(signal, sig))
+        out, rest = p.communicate(timeout=10)
+    finally:
+        if p.poll() is None:
+            p.kill()
+            p.communicate()
+    err += rest
+    assert p.returncode == 0 and "Traceback" not in err, err
+    import re
+    sent = re.search(r"republished (\d+) messages", out)
+    assert sent and int(sent.group(1)) < 10, out  # stopped at once, not after the 500 s
