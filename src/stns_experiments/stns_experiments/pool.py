@@ -424,9 +424,25 @@ def main(argv: list[str] | None = None) -> int:
     return print_and_save(describe(s), s, args.json)
 
 
+def run_folder_of(path: Path) -> Path | None:
+    """The run folder ``path`` lies in (an stns-experiment run: config.json beside sets/ or
+    summary.json; a bring-up: run_config.json), or None."""
+    for d in Path(path).absolute().parents:
+        if ((d / "config.json").is_file() and ((d / "sets").is_dir() or (d / "summary.json").is_file())
+                or (d / "run_config.json").is_file()):
+            return d
+    return None
+
+
 def print_and_save(text: str, data: dict, json_path: Path | None) -> int:
     """Print a report module's tables and, with ``--json``, write its figures as
     summary.json is written (atomic, no bare NaN); the command's exit code."""
+    if json_path and (run := run_folder_of(json_path)) is not None:
+        # a run's files are its record: pooled figures over its summary.json would lose it
+        # (and the run could not be pooled again)
+        sys.stderr.write(f"error: --json {str(json_path)!r} is inside the run folder "
+                         f"{str(run)!r}; choose a file outside it (nothing was written)\n")
+        return 2
     sys.stdout.write(text)
     if json_path:
         try:

@@ -65,6 +65,20 @@ def test_json_file_is_strict_json_like_a_run_summary(tmp_path, same_code, capsys
     assert s["behaviours_to_goal_by_block"][1] == pytest.approx(5.0)
 
 
+@pytest.mark.parametrize("target", ["summary.json", "config.json", "sets/set00.json",
+                                    "pooled.json"])
+def test_json_is_never_written_into_a_run_folder(tmp_path, same_code, capsys, target):
+    """--json a/summary.json wrote the pooled figures over run a's own summary (after which a
+    could not be pooled at all); a run folder's files are its record: refused, none changed."""
+    a = _write_run(tmp_path / "a", 0, [_set("set00", [50, 40, 30, 30], [5, 8, 10, 10])])
+    before = {f: f.read_bytes() for f in a.rglob("*") if f.is_file()}
+    assert P.main([str(a), "--json", str(a / target)]) == 2
+    err = capsys.readouterr().err
+    assert f"--json {str(a / target)!r} is inside the run folder {str(a)!r}" in err, err
+    assert {f: f.read_bytes() for f in a.rglob("*") if f.is_file()} == before
+    assert P.main([str(a), "--json", str(tmp_path / "pooled.json")]) == 0
+
+
 def test_refuses_runs_with_other_settings_naming_the_setting(tmp_path, same_code):
     a = _write_run(tmp_path / "a", 0, [_set("set00", [4] * 4, [2] * 4)])
     b = _write_run(tmp_path / "b", 1, [_set("set00", [4] * 4, [2] * 4)],
