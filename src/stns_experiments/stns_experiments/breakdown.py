@@ -26,7 +26,7 @@ import numpy as np
 from stns_experiments import metrics as M
 from stns_experiments.config import ExperimentError
 from stns_experiments.report import print_or_fail
-from stns_experiments.structure import positive_int, read_tables, run_params
+from stns_experiments.structure import check_together, positive_int, read_tables, run_params
 
 KINDS = (("0", "margin"), ("R", "R"), ("T", "T"))
 ANALYSABLE = ("exp1", "exp3", "exp2-sensor", "exp2-actuator")
@@ -108,6 +108,7 @@ def _cell(v: float | None) -> str:
 def describe(folders: list[Path], spans: list[tuple[int, int]] | None, level: str | None,
              mode: str) -> str:
     """The printed table over the trial sets of ``folders`` taken together."""
+    check_together(folders, ANALYSABLE, "has no per-step records to break down")
     tables: list[dict[str, np.ndarray]] = []
     shapes = set()
     for f in folders:

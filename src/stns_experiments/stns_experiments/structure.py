@@ -168,6 +168,25 @@ def run_params(folder: Path, analysable: tuple[str, ...], refusal: str) -> dict:
     return params
 
 
+def check_together(folders: list[Path], analysable: tuple[str, ...], refusal: str) -> None:
+    """Refuse run folders whose trial sets cannot be taken together, as pool does: one named
+    twice (its sets would count twice), or runs of different experiments."""
+    seen: set[Path] = set()
+    first: tuple[Path, str] | None = None
+    for folder in folders:
+        where = Path(folder).resolve()
+        if where in seen:
+            raise ExperimentError(f"run folder {str(folder)!r} is named twice: its trial sets "
+                                  f"would count twice")
+        seen.add(where)
+        exp = run_params(folder, analysable, refusal)["experiment"]
+        if first is None:
+            first = (folder, exp)
+        elif exp != first[1]:
+            raise ExperimentError(f"cannot take runs of different experiments together: "
+                                  f"{str(first[0])!r} is {first[1]}, {str(folder)!r} is {exp}")
+
+
 def positive_int(folder: Path, params: dict, name: str, default: int | None = None) -> int:
     """The run parameter ``name`` (``default`` when absent), which must be a positive int."""
     v = params.get(name, default)
@@ -185,6 +204,7 @@ def load_tables(folder: Path) -> tuple[list[dict[str, np.ndarray]], int]:
 
 def describe(folders: list[Path], by: int, span: int, min_share: float) -> str:
     """The printed analysis of the trial sets of ``folders`` taken together."""
+    check_together(folders, ANALYSABLE, "has no structure analysis")
     tables: list[dict[str, np.ndarray]] = []
     results = []
     for folder in folders:

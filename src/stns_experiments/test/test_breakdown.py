@@ -120,3 +120,12 @@ def test_bad_run_folders_are_named(tmp_path):
     (run / "records" / "set00.csv.gz").write_bytes(b"\x1f\x8b broken")
     with pytest.raises(ExperimentError, match="set00.csv.gz.*not a readable record file"):
         B.load(run, None, "relearn")
+
+
+def test_runs_of_two_experiments_or_one_run_twice_are_refused(tmp_path, capsys):
+    one, three = _run(tmp_path), _run(tmp_path, "exp3", name="exp3")
+    assert B.main([str(one), str(three)]) == 2
+    assert (f"cannot take runs of different experiments together: {str(one)!r} is exp1, "
+            f"{str(three)!r} is exp3") in capsys.readouterr().err
+    assert B.main([str(one), str(one)]) == 2
+    assert "is named twice: its trial sets would count twice" in capsys.readouterr().err

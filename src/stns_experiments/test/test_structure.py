@@ -163,3 +163,15 @@ def test_a_rare_other_behaviour_does_not_retype_a_situation():
     assert S.start_types(t) == ["R0>G"] * 4 + ["T2>R0"]
     # typed by the latest start only, the same rows read as a backward R-situation
     assert S.start_types(t, window=1)[3:] == ["R1>G", "T2>R1"]
+
+
+def test_runs_of_two_experiments_or_one_run_twice_are_refused(tmp_path, capsys):
+    """Their trial sets would be taken together: an Exp. 1 and an Exp. 3 run mixed into one
+    set of quantiles, or one run's sets counted twice, as pool refuses them."""
+    one = _run_folder(tmp_path / "a", tables=[_set_with_late_type()])
+    three = _run_folder(tmp_path / "b", "exp3", tables=[_set_with_late_type()])
+    assert S.main([str(one), str(three)]) == 2
+    assert (f"cannot take runs of different experiments together: {str(one)!r} is exp1, "
+            f"{str(three)!r} is exp3") in capsys.readouterr().err
+    assert S.main([str(one), str(tmp_path / "a" / "." / "run")]) == 2
+    assert "is named twice: its trial sets would count twice" in capsys.readouterr().err
