@@ -537,6 +537,11 @@ def run_grid(run: Run) -> dict:
                 raise ExperimentError(
                     f"--from {p['from']!r}: its STNS runs are on world {world!r}, this grid "
                     f"run on {p['world']!r}")
+            block = params.get("block_size") if isinstance(params, dict) else None
+            if block is not None and block != p["block_size"]:  # its counts are per its blocks
+                raise ExperimentError(
+                    f"--from {p['from']!r}: its STNS runs count blocks of {block!r} steps, this "
+                    f"grid run of {p['block_size']}; use --set block_size={block!r}")
         if stns_results[0]["steps"] < p["steps"]:
             raise ExperimentError(
                 f"--from {p['from']!r}: STNS runs have {stns_results[0]['steps']} steps, "

@@ -210,6 +210,10 @@ def test_grid_from_an_exp1_run_and_a_damaged_one(tmp_path, capsys):
     assert main(grid + ["--set", "world.preset=exp3", "--out", str(tmp_path / "g3")]) == 2
     assert "its STNS runs are on world {'preset': 'exp1'" in capsys.readouterr().err
     assert not (tmp_path / "g3" / "summary.json").exists()
+    # its block counts are per 100 steps: read as 50-step blocks the STNS curve would be wrong
+    assert main(grid + ["--set", "block_size=50", "--out", str(tmp_path / "g50")]) == 2
+    assert "its STNS runs count blocks of 100 steps, this grid run of 50" in capsys.readouterr().err
+    assert not (tmp_path / "g50" / "summary.json").exists()
     (out / "sets" / "set00.json").write_text('{"key": "set00"}')
     assert main(grid + ["--out", str(tmp_path / "g2")]) == 2
     assert "STNS trial-set result: " in capsys.readouterr().err
