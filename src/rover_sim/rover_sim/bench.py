@@ -61,6 +61,8 @@ def main(args: Sequence[str] | None = None) -> int:
     ns = parser.parse_args(args)
     if ns.ticks < 1 or ns.steps < 1:
         parser.error(f"--ticks and --steps must be >= 1, got {ns.ticks} and {ns.steps}")
+    if ns.seed < 0:
+        parser.error(f"--seed must be a non-negative integer, got {ns.seed}")
     load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
     print(
         f"python {platform.python_version()} on {platform.machine()}, one process, "

@@ -22,6 +22,7 @@ computes the tick's events from the new base pose:
 from __future__ import annotations
 
 import math
+import numbers
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import Any
@@ -94,7 +95,7 @@ class RoverWorld:
         if not isinstance(config, WorldConfig):
             raise RoverSimError(f"config must be a WorldConfig or a task name, got {config!r}")
         self._config = config
-        self._rng = np.random.default_rng(seed)
+        self._rng = _generator(seed)
         self._faults = config.faults
         self._client: DirectClient | None = DirectClient()
         self._scene = bodies.build_scene(self._client, config)
@@ -176,7 +177,7 @@ class RoverWorld:
         """
         self._check_open()
         if seed is not None:
-            self._rng = np.random.default_rng(seed)
+            self._rng = _generator(seed)
         options = dict(options or {})
         unknown = sorted(set(options) - set(_RESET_OPTIONS))
         if unknown:
@@ -460,6 +461,16 @@ class RoverWorld:
             "tick": self._tick,
             "sim_time": self.sim_time,
         }
+
+
+def _generator(seed: Any) -> np.random.Generator:
+    """The world's Generator from `seed`; numpy's own errors for a bad one ("expected
+    non-negative integer") name neither the seed nor its value."""
+    if seed is None or isinstance(seed, (np.random.SeedSequence, np.random.Generator)):
+        return np.random.default_rng(seed)
+    if isinstance(seed, bool) or not isinstance(seed, numbers.Integral) or seed < 0:
+        raise RoverSimError(f"seed must be a non-negative integer, got {seed!r}")
+    return np.random.default_rng(int(seed))
 
 
 def _as_action(action: Any) -> Action:

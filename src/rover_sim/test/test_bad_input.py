@@ -52,6 +52,24 @@ def test_unknown_task_names(name):
         RoverWorld(name)
 
 
+@pytest.mark.parametrize("seed", [-1, 1.5, "7", True])
+def test_bad_seeds(world, seed):
+    """numpy's own errors ("expected non-negative integer") named neither seed nor value."""
+    with pytest.raises(RoverSimError, match=f"seed must be a non-negative integer, got {seed!r}"):
+        RoverWorld("exp1", seed=seed)
+    with pytest.raises(RoverSimError, match=f"seed must be a non-negative integer, got {seed!r}"):
+        world.reset(seed=seed)
+
+
+def test_bench_refuses_a_negative_seed(capsys):
+    from rover_sim.bench import main as bench_main
+
+    with pytest.raises(SystemExit) as e:
+        bench_main(["--seed", "-1", "--ticks", "5", "--steps", "1"])
+    assert e.value.code == 2
+    assert "--seed must be a non-negative integer, got -1" in capsys.readouterr().err
+
+
 @pytest.mark.parametrize(
     ("field", "value", "match"),
     [
