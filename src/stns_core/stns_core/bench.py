@@ -198,10 +198,19 @@ def main(args=None) -> int:
             key, eq, value = item.partition("=")
             if not eq:
                 parser.error(f"--set takes KEY=VALUE, got {item!r}")
+            # run_learn sets these two itself, from the options
+            if key == "seed":
+                parser.error("--set seed: the seeds are 0..N-1 of --seeds; give --seeds")
+            if key == "target_lookahead_ticks":
+                parser.error(f"--set target_lookahead_ticks: give --lookahead {value} instead")
             default = getattr(StnsConfig(), key, None)
             try:
-                if isinstance(default, bool):
-                    overrides[key] = value.lower() in ("1", "true", "yes")
+                if isinstance(default, bool):  # a typo must not read as False
+                    words = {"1": True, "true": True, "yes": True,
+                             "0": False, "false": False, "no": False}
+                    if value.lower() not in words:
+                        parser.error(f"--set {key}: {value!r} is not true or false")
+                    overrides[key] = words[value.lower()]
                 elif default is not None:
                     overrides[key] = type(default)(value)
                 else:

@@ -26,6 +26,12 @@ def test_bench_learn_cli(capsys):
     (["--set", "gamma=x"], "--set gamma: 'x' is not a float"),
     (["--set", "gamma=2"], "gamma must be in [0, 1), got 2.0"),
     (["--set", "nope=3"], "unknown StnsConfig keys: ['nope']"),
+    # the options set these two: a --set of them died with a TypeError traceback
+    (["--set", "seed=3"], "--set seed: the seeds are 0..N-1 of --seeds; give --seeds"),
+    (["--set", "target_lookahead_ticks=2"],
+     "--set target_lookahead_ticks: give --lookahead 2 instead"),
+    # anything but a yes or no word was read as False
+    (["--set", "iprl_memo=ture"], "--set iprl_memo: 'ture' is not true or false"),
 ])
 def test_bench_learn_cli_names_a_bad_value(argv, message, capsys):
     with pytest.raises(SystemExit) as e:
