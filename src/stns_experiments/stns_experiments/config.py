@@ -183,6 +183,9 @@ def validate(exp: str, params: Mapping[str, Any]) -> dict[str, Any]:
     p["max_ticks_per_step"] = _int("max_ticks_per_step", p["max_ticks_per_step"], 1)
     p["world"] = _section("world", p["world"])
     p["agent"] = _section("agent", p["agent"])
+    if "seed" in p["agent"]["overrides"]:  # make_agent_config replaces it, per trial set
+        raise ExperimentError("agent.overrides.seed is not used: each trial set's learner seed "
+                              "comes from the root seed (--seed); drop it")
     p["save_states"] = _bool("save_states", p["save_states"])
     p["figures"] = _bool("figures", p["figures"])
     if exp.startswith("exp2"):

@@ -107,6 +107,10 @@ def test_missing_file_and_overrides(tmp_path):
     (["exp1", "--set", "world.overrides.room_size=-1"], "world: "),
     (["exp1", "--set", "agent.overrides.miss_stop=off"], "got the boolean False .in YAML, quote"),
     (["exp2-sensor", "--from", "/nonexistent"], "--from: no such directory '/nonexistent'"),
+    # each trial set's learner seed comes from the root seed: this one was silently replaced
+    (["exp1", "--set", "agent.overrides.seed=5"],
+     r"agent.overrides.seed is not used: each trial set's learner seed comes from the root "
+     r"seed \(--seed\); drop it"),
     (["exp1", "--set", "steps=abc", "--steps", "100"],
      r"steps is given twice: --set steps='abc' and --steps; give one"),
     (["exp1", "--set", "figures=maybe", "--no-figures"], r"figures is given twice: .*--no-figures"),
