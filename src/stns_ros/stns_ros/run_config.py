@@ -102,6 +102,10 @@ def parse_run_config(data: Any, source: str = "", base_dir: Path | None = None) 
             if not isinstance(cfg[sec]["overrides"], Mapping):
                 raise StnsRosError(f"{sec}.overrides must be a mapping, got {cfg[sec]['overrides']!r}")
             cfg[sec]["overrides"] = dict(cfg[sec]["overrides"])
+        if "seed" in learner["overrides"]:  # learner.seed replaces it when the config is built
+            raise StnsRosError("learner.overrides.seed is not used: the learner's seed is "
+                               "learner.seed (by default from run.seed); set that instead, "
+                               f"got {learner['overrides']['seed']!r}")
         if not isinstance(world["faults"], Mapping):
             raise StnsRosError(f"world.faults must be a mapping, got {world['faults']!r}")
         for name, value in world["faults"].items():

@@ -38,6 +38,10 @@ BASE = {"run": {"steps": 10}, "faults": None}
     ({"world": {"overrides": {"room_size": -1}}}, r"world.overrides: .*room_size"),
     ({"learner": {"overrides": {"gamma": 2.0}}}, r"learner.overrides: .*gamma"),
     ({"learner": {"state_in": "nowhere.npz"}}, r"learner.state_in: no saved learner at"),
+    # learner.seed replaced it, silently
+    ({"learner": {"overrides": {"seed": 5}}},
+     r"learner.overrides.seed is not used: the learner's seed is learner.seed \(by default "
+     r"from run.seed\); set that instead, got 5"),
     ({"recording": {"compression": "gzip"}}, r"recording.compression must be one of zstd, lz4, none, got 'gzip'"),
     ({"recording": False}, r"recording must be a mapping, got False"),
     ({"run": {"name": "../elsewhere"}}, r"run.name must be a plain folder name .*got '../elsewhere'"),
