@@ -47,6 +47,10 @@ def test_paper_numbers_in_presets():
     ("experiment: exp3\n", r"the file is for 'exp3', not 'exp1'"),
     ("convergence_tol: 0\n", r"convergence_tol must be > 0.0, got 0"),
     ("- a\n- b\n", r"must hold a mapping, got list"),
+    # PyYAML keeps the last of two: the first, maybe the one meant, was silently dropped
+    ("steps: 5\nseed: 1\nsteps: 6\n", r"bad.yaml' is not valid YAML: key 'steps' is given "
+                                       r"twice at line 3, column 1$"),
+    ("agent:\n  overrides: {gamma: 0.5, gamma: 0.6}\n", r"key 'gamma' is given twice at line 2"),
     ("steps: [1, \n", r"bad.yaml' is not valid YAML: expected the node content, but found '<stream end>' at "
                         r"line 2, column 1$"),
 ])
