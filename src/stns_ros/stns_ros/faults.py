@@ -21,7 +21,7 @@ names the offending key and value.
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Hashable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -178,6 +178,25 @@ def load_scenario(path: str | Path) -> FaultScenario:
     return parse_scenario(read_yaml(p, "fault scenario"), str(p))
 
 
+class _UniqueKeyLoader(yaml.SafeLoader):
+    """SafeLoader refusing a key given twice in one mapping: PyYAML keeps the last, and the
+    other, maybe the one meant, would be dropped without a word."""
+
+    def construct_mapping(self, node: yaml.MappingNode, deep: bool = False) -> dict:
+        seen: set = set()
+        for key_node, _ in node.value:
+            if key_node.tag == "tag:yaml.org,2002:merge":  # `<<:` keys may be overridden
+                continue
+            key = self.construct_object(key_node, deep=deep)
+            if not isinstance(key, Hashable):
+                continue  # the base class names an unhashable key itself
+            if key in seen:
+                raise yaml.constructor.ConstructorError(
+                    None, None, f"key {key!r} is given twice", key_node.start_mark)
+            seen.add(key)
+        return super().construct_mapping(node, deep=deep)
+
+
 def read_yaml(path: Path, what: str) -> Any:
     """Parse a YAML file; an unreadable file or bad YAML is a StnsRosError naming it."""
     try:
@@ -188,7 +207,7 @@ def read_yaml(path: Path, what: str) -> Any:
         raise StnsRosError(f"{what} {str(path)!r} is not UTF-8 text: byte "
                            f"0x{e.object[e.start]:02x} at offset {e.start}") from None
     try:
-        return yaml.safe_load(text)
+        return yaml.load(text, Loader=_UniqueKeyLoader)  # noqa: S506 - a SafeLoader
     except yaml.YAMLError as e:
         raise StnsRosError(f"{path}: not valid YAML: {yaml_problem(e)}") from None
 

@@ -72,6 +72,10 @@ def test_bad_yaml_names_the_file(tmp_path):
     p.write_text(f"nodes: {nodes}\n")
     with pytest.raises(StnsRosError, match=r"nodes.yaml: not valid YAML: .* at line 2, column 1$"):
         load_run_config(p)
+    p.write_text("run: {steps: 3}\nrun: {steps: 5}\n")  # PyYAML would keep the last
+    with pytest.raises(StnsRosError, match=r"run.yaml: not valid YAML: key 'run' is given twice "
+                                           r"at line 2, column 1$"):
+        load_run_config(p)
     p.write_text(yaml.safe_dump({"run": {"steps": "many"}}))
     with pytest.raises(StnsRosError, match=r"run.yaml: run.steps must be an integer >= 1, got 'many'"):
         load_run_config(p)
