@@ -112,7 +112,7 @@ def test_bad_run_configs_are_refused_before_the_run(tmp_path):
     err = _bringup_error(tmp_path, "run: {steps: 3\n")
     assert "bad.yaml: not valid YAML" in err
     err = _bringup_error(tmp_path, yaml.safe_dump({"run": {"steps": -1}}))
-    assert "run.steps must be an integer >= 1, got -1" in err
+    assert "run.steps must be an integer in [1, 1000000000], got -1" in err
     (tmp_path / "f.yaml").write_text(yaml.safe_dump(
         {"faults": [{"at_step": 3, "set": {"goal_sensor_rotation_deg": 400}}]}))
     err = _bringup_error(tmp_path, yaml.safe_dump({"faults": "f.yaml"}))

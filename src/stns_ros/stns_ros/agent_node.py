@@ -38,6 +38,7 @@ from stns_ros.conversion import UNIT_M, m_to_u, set_stamp, stamp_ns, tick_ns
 from stns_ros.driver import AgentDriver, action_velocities, dumps, make_agent, record_to_dict
 from stns_ros.errors import StnsRosError
 from stns_ros.params import (
+    MAX_STEPS,
     TUNING,
     NamedRefusals,
     check_choice,
@@ -97,7 +98,7 @@ class StnsAgentNode(NamedRefusals, Node):
                                        read_only=True)
         p["max_behaviour_steps"] = declare(
             self, "max_behaviour_steps", 0, "Exit after this many behaviour steps (0 = never).",
-            range=(0, 10**9), read_only=True)
+            range=(0, MAX_STEPS), read_only=True)
         p["state_in"] = declare(self, "state_in", "", "Saved learner to start from ('' = new).",
                                 read_only=True)
         p["state_out"] = declare(self, "state_out", "", "Save the learner here on shutdown.",

@@ -22,6 +22,7 @@ import time
 from pathlib import Path
 
 from stns_ros.errors import StnsRosError
+from stns_ros.params import MAX_STEPS
 from stns_ros.run_config import (
     load_run_config,
     node_parameters,
@@ -235,8 +236,8 @@ def main(args=None) -> None:
     try:
         cfg = load_run_config(ns.config)
         if ns.steps is not None:
-            if ns.steps < 1:
-                raise StnsRosError(f"--steps must be >= 1, got {ns.steps}")
+            if not 1 <= ns.steps <= MAX_STEPS:  # the agent refuses more, once the run started
+                raise StnsRosError(f"--steps must be in [1, {MAX_STEPS}], got {ns.steps}")
             cfg["run"]["steps"] = ns.steps
         for text in unreached_faults(cfg):
             warn(text)

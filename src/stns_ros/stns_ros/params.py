@@ -30,6 +30,9 @@ FAULT_PARAMS: dict[str, tuple[float, float, bool, str]] = {
     "range_sensor_noise_std_m": (
         0.0, 1.0, False, "Gaussian noise std on each sector range, metres."),
 }
+#: The most behaviour steps a run may ask for (the agent's ``max_behaviour_steps``).
+MAX_STEPS = 10**9
+
 FAULT_NEUTRAL = {
     "goal_sensor_rotation_deg": 0.0,
     "left_wheel_gain": 1.0,

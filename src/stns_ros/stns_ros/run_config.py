@@ -32,7 +32,14 @@ from stns_ros.faults import (
     parse_scenario,
     read_yaml,
 )
-from stns_ros.params import FAULT_NEUTRAL, FAULT_PARAMS, TUNING, check_fault, check_tuning
+from stns_ros.params import (
+    FAULT_NEUTRAL,
+    FAULT_PARAMS,
+    MAX_STEPS,
+    TUNING,
+    check_fault,
+    check_tuning,
+)
 
 SCHEMA: dict[str, dict[str, Any]] = {
     "run": {"name": "run", "seed": 0, "steps": 3000, "mode": "lockstep", "real_time_factor": 1.0},
@@ -90,7 +97,7 @@ def parse_run_config(data: Any, source: str = "", base_dir: Path | None = None) 
                 f"run.name must be a plain folder name (letters, digits, '.', '_', '-'; "
                 f"--out takes a path), got {run['name']!r}")
         _int("run.seed", run["seed"], 0, 2**32 - 1)
-        _int("run.steps", run["steps"], 1)
+        _int("run.steps", run["steps"], 1, MAX_STEPS)
         _choice("run.mode", run["mode"], ("lockstep", "free_running"))
         rtf = run["real_time_factor"]
         if isinstance(rtf, bool) or not isinstance(rtf, int | float) or not 0.01 <= rtf <= 100:

@@ -30,7 +30,10 @@ BASE = {"run": {"steps": 10}, "faults": None}
 
 
 @pytest.mark.parametrize("patch, match", [
-    ({"run": {"steps": -5}}, r"run.steps must be an integer >= 1, got -5"),
+    ({"run": {"steps": -5}}, r"run.steps must be an integer in \[1, 1000000000\], got -5"),
+    # the agent's max_behaviour_steps refused it only once the nodes ran, in a fresh run folder
+    ({"run": {"steps": 2_000_000_000}},
+     r"run.steps must be an integer in \[1, 1000000000\], got 2000000000"),
     ({"run": {"mode": "fast"}}, r"run.mode must be one of lockstep, free_running, got 'fast'"),
     ({"run": {"real_time_factor": 0}}, r"run.real_time_factor must be in \[0.01, 100\], got 0"),
     ({"world": {"preset": "exp9"}}, r"world.preset must be one of exp1, exp3, got 'exp9'"),
@@ -77,7 +80,7 @@ def test_bad_yaml_names_the_file(tmp_path):
                                            r"at line 2, column 1$"):
         load_run_config(p)
     p.write_text(yaml.safe_dump({"run": {"steps": "many"}}))
-    with pytest.raises(StnsRosError, match=r"run.yaml: run.steps must be an integer >= 1, got 'many'"):
+    with pytest.raises(StnsRosError, match=r"run.yaml: run.steps must be an integer in .*, got 'many'"):
         load_run_config(p)
 
 
@@ -188,3 +191,15 @@ def test_fault_events_after_the_last_step_are_named(tmp_path):
                            "(10 behaviour steps)")
     cfg["run"]["steps"] = 11
     assert unreached_faults(cfg) == []
+
+
+def test_bringup_steps_beyond_what_the_agent_takes_are_refused_before_the_run(tmp_path, capsys):
+    from stns_ros.bringup import main
+
+    p = tmp_path / "run.yaml"
+    p.write_text("run: {steps: 3}\nfaults: null\n")
+    out = tmp_path / "out"
+    with pytest.raises(SystemExit) as e:
+        main(["--config", str(p), "--steps", "2000000000", "--out", str(out)])
+    assert "--steps must be in [1, 1000000000], got 2000000000" in str(e.value.code)
+    assert not out.exists()
