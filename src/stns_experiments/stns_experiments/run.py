@@ -105,7 +105,7 @@ class Run:
                                   f"{e.strerror}") from None
 
     # parameters a --resume may change: the figures drawn, and more trial sets (set i's seeds
-    # do not depend on how many sets there are)
+    # do not depend on how many sets there are); fewer are refused
     RESUMABLE = ("figures", "trial_sets")
 
     def _check_earlier_run(self) -> None:
@@ -128,6 +128,12 @@ class Run:
         if not isinstance(old, dict):
             raise ExperimentError(f"--resume: {str(cfg)!r} holds no 'params' mapping")
         new = json.loads(json.dumps(self.params))
+        before = old.get("trial_sets")
+        if isinstance(before, int) and new["trial_sets"] < before:
+            # the summary would cover the first sets only, beside the others' result files
+            raise ExperimentError(
+                f"--resume: the run in {str(self.out)!r} holds {before} trial sets; resume it "
+                f"with --trial-sets {before} or more, or choose another --out")
         differ = sorted(k for k in set(old) | set(new)
                         if k not in self.RESUMABLE and old.get(k) != new.get(k))
         if differ:

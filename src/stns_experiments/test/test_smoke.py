@@ -156,6 +156,13 @@ def test_an_earlier_run_is_not_written_over(tmp_path, capsys):
     assert (out / "sets" / "set00.json").read_bytes() == files[out / "sets" / "set00.json"]
     assert (out / "sets" / "set01.json").is_file()
     assert json.loads((out / "summary.json").read_text())["trial_sets"] == 2
+    # fewer sets would rewrite the summary of set00 alone beside set01's files, which pool
+    # then refuses: the earlier run's summary lost
+    files = {p: p.read_bytes() for p in out.rglob("*") if p.is_file()}
+    assert main(["exp1", "--steps", "120", "--resume", "--out", str(out)] + SMALL) == 2
+    assert ("--resume: the run in " in (err := capsys.readouterr().err)
+            and "holds 2 trial sets; resume it with --trial-sets 2 or more" in err), err
+    assert {p: p.read_bytes() for p in out.rglob("*") if p.is_file()} == files
 
 
 def test_an_out_that_cannot_be_a_folder_is_named(tmp_path, capsys):
