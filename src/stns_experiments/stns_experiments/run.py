@@ -30,7 +30,7 @@ from stns_experiments.experiments import (
     summarise_sets,
     world_config,
 )
-from stns_experiments.pool import read_set
+from stns_experiments.pool import read_set, run_folder_of
 from stns_experiments.report import read_json
 from stns_experiments.runner import (
     changed_files,
@@ -96,6 +96,10 @@ class Run:
         self.library = library_hashes(self.packages)
         if self.out.exists() and not self.out.is_dir():
             raise ExperimentError(f"--out {str(self.out)!r} is a file, not a folder")
+        if (holder := run_folder_of(self.out)) is not None:  # e.g. a typo: --out runs/x/sets
+            raise ExperimentError(
+                f"--out {str(self.out)!r} is inside the run folder {str(holder)!r}, whose files "
+                "are that run's record; choose another --out (nothing was changed)")
         self._check_earlier_run()
         try:
             self.out.mkdir(parents=True, exist_ok=True)

@@ -165,6 +165,18 @@ def test_an_earlier_run_is_not_written_over(tmp_path, capsys):
     assert {p: p.read_bytes() for p in out.rglob("*") if p.is_file()} == files
 
 
+def test_an_out_inside_an_earlier_run_is_refused(tmp_path, capsys):
+    """--out runs/x/sets put a run's config.json and summary.json among run x's result files:
+    x could no longer be pooled. Refused before anything changes."""
+    out, _ = _run(tmp_path, ["exp1", "--steps", "20", "--no-figures"] + SMALL)
+    files = {p: p.read_bytes() for p in out.rglob("*") if p.is_file()}
+    assert main(["exp1", "--steps", "20", "--no-figures", "--out", str(out / "sets")] + SMALL) == 2
+    assert (f"--out {str(out / 'sets')!r} is inside the run folder {str(out)!r}"
+            in capsys.readouterr().err)
+    assert {p: p.read_bytes() for p in out.rglob("*") if p.is_file()} == files
+    assert sorted(p.name for p in (out / "sets").iterdir()) == ["random.json", "set00.json"]
+
+
 def test_an_out_that_cannot_be_a_folder_is_named(tmp_path, capsys):
     (tmp_path / "afile").write_text("kept")
     assert main(["exp1", "--steps", "20", "--out", str(tmp_path / "afile")] + SMALL) == 2
