@@ -14,7 +14,6 @@ import argparse
 import json
 import os
 import re
-import shutil
 import signal
 import subprocess
 import sys
@@ -63,18 +62,12 @@ class Bringup:
             if not (out / RUN_MARK).exists():
                 raise StnsRosError(
                     f"--out {str(out)!r} exists and is not an stns run folder; not overwriting")
-            state_in = self.cfg["learner"]["state_in"]
-            if state_in and Path(state_in).resolve().is_relative_to(out.resolve()):
-                # the agent loads it after the folder is replaced: it would be gone
-                raise StnsRosError(
-                    f"learner.state_in {state_in!r} lies inside --out {str(out)!r}, which this "
-                    "run replaces; copy the learner elsewhere or choose another --out")
-            shutil.rmtree(out)
+            self._keep_earlier_run()
         try:
             (out / "logs").mkdir(parents=True)
         except OSError as e:
             raise StnsRosError(f"--out {str(out)!r}: cannot make the run folder: {e.strerror}") from None
-        (out / RUN_MARK).write_text("stns_bringup run folder (replaced by the next run here)\n")
+        (out / RUN_MARK).write_text("stns_bringup run folder (moved aside by the next run here)\n")
         run_json = json.dumps(self.cfg, sort_keys=True)
         (out / "run_config.json").write_text(json.dumps(self.cfg, indent=2, sort_keys=True))
         params, notes = node_parameters(self.cfg, out.resolve(), run_json)
@@ -85,6 +78,30 @@ class Bringup:
         path = out / "params.yaml"
         write_params_file(params, path)
         return path
+
+    def _keep_earlier_run(self) -> None:
+        """Move the earlier bring-up run in --out aside, to ``<out>.<its start time>``: its bag
+        and learner are a record (``make run`` twice must not lose the first). A
+        ``learner.state_in`` inside it is followed to where it now lies."""
+        out = self.out.absolute()  # a name to derive from, also for --out .
+        stamp = time.strftime("%Y%m%d-%H%M%S", time.localtime((out / RUN_MARK).stat().st_mtime))
+        kept = out.with_name(f"{out.name}.{stamp}")
+        n = 1
+        while kept.exists():
+            kept, n = out.with_name(f"{out.name}.{stamp}-{n}"), n + 1
+        state_in = self.cfg["learner"]["state_in"]
+        where = Path(state_in).resolve() if state_in else None
+        inside = where is not None and where.is_relative_to(out.resolve())
+        rel = where.relative_to(out.resolve()) if inside else None
+        try:
+            out.rename(kept)
+        except OSError as e:
+            raise StnsRosError(f"--out {str(out)!r}: cannot move the earlier run aside to "
+                               f"{str(kept)!r}: {e.strerror}") from None
+        if rel is not None:
+            self.cfg["learner"]["state_in"] = str(kept.resolve() / rel)
+        sys.stderr.write(f"stns_bringup: the earlier run in {str(out)!r} is kept as "
+                         f"{str(kept)!r}\n")
 
     def start(self, name: str, module: str, params: Path) -> None:
         log = open(self.out / "logs" / f"{name}.log", "w")  # noqa: SIM115 - closed in stop_all
