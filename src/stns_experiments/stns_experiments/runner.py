@@ -105,13 +105,7 @@ _QUEUE: Any = None
 
 def _call(job: tuple[Callable, dict]) -> tuple[str, dict | None, str | None]:
     fn, task = job
-    try:
-        return task["key"], fn(task, _Progress(_QUEUE, task["key"])), None
-    except ExperimentError as e:
-        return task["key"], None, str(e)
-    except Exception as e:  # noqa: BLE001 - reported with the task's name, run goes on
-        import traceback
-        return task["key"], None, f"{type(e).__name__}: {e}\n{traceback.format_exc()}"
+    return _call_inline(fn, task, _Progress(_QUEUE, task["key"]))
 
 
 def _fmt(sec: float) -> str:
@@ -229,11 +223,17 @@ def _drain(q: Any, line: ProgressLine) -> None:
         line.done_steps[key] = max(line.done_steps.get(key, 0), steps)
 
 
-def _call_inline(fn, task, prog):
+def _call_inline(fn: Callable, task: dict, prog: Callable[[int], None]
+                 ) -> tuple[str, dict | None, str | None]:
+    """(key, result, None), or (key, None, error text): a failing task is reported with its
+    name and the other tasks go on, in a worker process or in this one (--jobs 1) alike."""
     try:
         return task["key"], fn(task, prog), None
     except ExperimentError as e:
         return task["key"], None, str(e)
+    except Exception as e:  # noqa: BLE001 - reported with the task's name, run goes on
+        import traceback
+        return task["key"], None, f"{type(e).__name__}: {e}\n{traceback.format_exc()}"
 
 
 def workspace_root(start: Path | None = None) -> Path | None:
