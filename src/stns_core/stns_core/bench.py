@@ -216,7 +216,9 @@ def main(args=None) -> int:
                 else:
                     overrides[key] = value
             except ValueError:
-                parser.error(f"--set {key}: {value!r} is not a {type(default).__name__}")
+                kind = {"int": "an integer", "float": "a number"}.get(type(default).__name__,
+                                                                      type(default).__name__)
+                parser.error(f"--set {key}: {value!r} is not {kind}")
         try:
             StnsConfig.preset("exp1", **overrides)
         except (StnsError, TypeError) as e:

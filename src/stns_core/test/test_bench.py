@@ -23,7 +23,8 @@ def test_bench_learn_cli(capsys):
     (["--seeds", "0"], "--seeds must be >= 1, got 0"),
     (["--lookahead", "-4"], "--lookahead must be >= 0, got -4"),
     (["--set", "gamma"], "--set takes KEY=VALUE, got 'gamma'"),
-    (["--set", "gamma=x"], "--set gamma: 'x' is not a float"),
+    (["--set", "gamma=x"], "--set gamma: 'x' is not a number"),
+    (["--set", "n_init_t=1.5"], "--set n_init_t: '1.5' is not an integer"),
     (["--set", "gamma=2"], "gamma must be in [0, 1), got 2.0"),
     (["--set", "nope=3"], "unknown StnsConfig keys: ['nope']"),
     # the options set these two: a --set of them died with a TypeError traceback
