@@ -552,6 +552,11 @@ def run_grid(run: Run) -> dict:
                 raise ExperimentError(
                     f"--from {p['from']!r}: its STNS runs count blocks of {block!r} steps, this "
                     f"grid run of {p['block_size']}; use --set block_size={block!r}")
+            seed = params.get("seed") if isinstance(params, dict) else None
+            if seed is not None and seed != p["seed"]:  # the grids' worlds come from the root seed
+                raise ExperimentError(
+                    f"--from {p['from']!r}: its STNS runs are of root seed {seed!r}, this grid "
+                    f"run of {p['seed']}; use --seed {seed!r}")
         if stns_results[0]["steps"] < p["steps"]:
             raise ExperimentError(
                 f"--from {p['from']!r}: STNS runs have {stns_results[0]['steps']} steps, "

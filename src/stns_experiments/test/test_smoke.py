@@ -233,6 +233,10 @@ def test_grid_from_an_exp1_run_and_a_damaged_one(tmp_path, capsys):
     assert main(grid + ["--set", "block_size=50", "--out", str(tmp_path / "g50")]) == 2
     assert "its STNS runs count blocks of 100 steps, this grid run of 50" in capsys.readouterr().err
     assert not (tmp_path / "g50" / "summary.json").exists()
+    # the grids' trial sets take their worlds from the root seed: another one compares other rooms
+    assert main(grid + ["--seed", "1", "--out", str(tmp_path / "gs1")]) == 2
+    assert "its STNS runs are of root seed 0, this grid run of 1" in capsys.readouterr().err
+    assert not (tmp_path / "gs1" / "summary.json").exists()
     (out / "sets" / "set00.json").write_text('{"key": "set00"}')
     assert main(grid + ["--out", str(tmp_path / "g2")]) == 2
     assert "STNS trial-set result: " in capsys.readouterr().err
