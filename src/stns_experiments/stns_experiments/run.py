@@ -103,7 +103,6 @@ class Run:
         self._check_earlier_run()
         try:
             self.out.mkdir(parents=True, exist_ok=True)
-            (self.out / "figures").mkdir(exist_ok=True)
         except OSError as e:
             raise ExperimentError(f"--out {str(self.out)!r}: cannot make the folder: "
                                   f"{e.strerror}") from None
@@ -275,6 +274,7 @@ def _safe_figure(figures: list[str], run: Run, fn, *args, **kw) -> None:
     if not run.params["figures"]:
         return
     try:
+        (run.out / "figures").mkdir(exist_ok=True)  # here: a refused run leaves none behind
         path = fn(*args, **kw)
         figures.append(str(Path(path).relative_to(run.out)))
     except Exception as e:  # noqa: BLE001 - a failed figure must not lose the results

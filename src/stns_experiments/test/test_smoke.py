@@ -237,6 +237,9 @@ def test_grid_from_an_exp1_run_and_a_damaged_one(tmp_path, capsys):
     assert main(grid + ["--seed", "1", "--out", str(tmp_path / "gs1")]) == 2
     assert "its STNS runs are of root seed 0, this grid run of 1" in capsys.readouterr().err
     assert not (tmp_path / "gs1" / "summary.json").exists()
+    drawn = [a for a in grid if a != "--no-figures"] + ["--seed", "1", "--out", str(tmp_path / "gf")]
+    assert main(drawn) == 2 and "root seed 0" in capsys.readouterr().err
+    assert not (tmp_path / "gf" / "figures").exists()  # a refused run draws nothing
     (out / "sets" / "set00.json").write_text('{"key": "set00"}')
     assert main(grid + ["--out", str(tmp_path / "g2")]) == 2
     assert "STNS trial-set result: " in capsys.readouterr().err
