@@ -172,8 +172,11 @@ def resolve_bag(arg: str) -> tuple[Path, Path | None]:
 
 
 def default_out(bag: Path, folder: Path | None) -> Path:
-    """<run>/replay: beside the bag directory (also for its .mcap file), never inside it."""
-    return (folder or bag).resolve().parent / "replay"
+    """Beside the bag directory (also for its .mcap file), never inside it: <run>/replay for a
+    bring-up run's bag/, else <name>.replay, so that bags kept side by side (bags/a, bags/b)
+    do not write over each other's replay."""
+    d = (folder or bag).resolve()
+    return d.parent / ("replay" if d.name == "bag" else f"{d.name}.replay")
 
 
 def _incomplete(bag: Path, counts: dict[str, int]) -> str | None:
@@ -207,8 +210,8 @@ def main(args=None) -> None:
     parser.add_argument("--recover", action="store_true",
                         help="first rewrite a bag cut short (killed recorder, truncated file) "
                         "into a complete one, keeping the original as <name>.orig")
-    parser.add_argument("--out", help="folder for summary.json and plots (default <run>/replay, "
-                        "beside the bag directory)")
+    parser.add_argument("--out", help="folder for summary.json and plots (default beside the "
+                        "bag directory: <run>/replay for a run's bag/, else <name>.replay)")
     ns = parser.parse_args(args)
     try:
         bag, folder = resolve_bag(ns.bag)

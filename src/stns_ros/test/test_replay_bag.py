@@ -77,6 +77,16 @@ def test_the_mcap_file_of_a_bag_writes_beside_the_bag_not_inside(tmp_path, capsy
     assert _files(bag) == before
 
 
+def test_bags_side_by_side_keep_their_own_replay_output(tmp_path, capsys):
+    for name in ("a", "b"):
+        _write(tmp_path / "bags" / name)
+        rc, out, err = replay(capsys, tmp_path / "bags" / name, "--no-publish")
+        assert rc == 0, out + err
+    assert sorted(p.name for p in (tmp_path / "bags").iterdir()) == ["a", "a.replay", "b",
+                                                                     "b.replay"]
+    assert all((tmp_path / "bags" / f"{n}.replay" / "summary.json").exists() for n in "ab")
+
+
 def test_a_damaged_metadata_yaml_fails_verify_but_not_a_replay(tmp_path, capsys):
     bag = tmp_path / "run" / "bag"
     _write(bag)
