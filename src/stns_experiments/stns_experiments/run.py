@@ -542,17 +542,18 @@ def run_grid(run: Run) -> dict:
         if cfg_file.is_file():  # compare on the same world: an exp1 run is no 8-D baseline
             cfg = read_json(cfg_file, f"--from {p['from']!r}: run config")
             params = cfg.get("params") if isinstance(cfg, dict) else None
-            world = params.get("world") if isinstance(params, dict) else None
+            params = params if isinstance(params, dict) else {}
+            world = params.get("world")
             if world is not None and world != p["world"]:
                 raise ExperimentError(
                     f"--from {p['from']!r}: its STNS runs are on world {world!r}, this grid "
                     f"run on {p['world']!r}")
-            block = params.get("block_size") if isinstance(params, dict) else None
+            block = params.get("block_size")
             if block is not None and block != p["block_size"]:  # its counts are per its blocks
                 raise ExperimentError(
                     f"--from {p['from']!r}: its STNS runs count blocks of {block!r} steps, this "
                     f"grid run of {p['block_size']}; use --set block_size={block!r}")
-            seed = params.get("seed") if isinstance(params, dict) else None
+            seed = params.get("seed")
             if seed is not None and seed != p["seed"]:  # the grids' worlds come from the root seed
                 raise ExperimentError(
                     f"--from {p['from']!r}: its STNS runs are of root seed {seed!r}, this grid "
