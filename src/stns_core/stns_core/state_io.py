@@ -133,6 +133,7 @@ def _restore(cls, arrays: dict[str, np.ndarray]) -> StnsAgent:
                              f"history_size {config.history_size} / obs_dim {agent.obs_dim}")
     learner.hist = hist
     learner.next_id = int(meta["next_id"])
+    _check_history(hist, agent.n_behaviours, learner.next_id)
     for k, d in enumerate(meta["situations"]):
         if d["kind"] not in (R_KIND, T_KIND):
             raise StnsStateError(f"situation kind {d['kind']!r}")
@@ -143,6 +144,7 @@ def _restore(cls, arrays: dict[str, np.ndarray]) -> StnsAgent:
         mean, cov = arrays[f"sit{k}_mean"], arrays[f"sit{k}_cov"]
         if mean.shape != (hist.dim,) or cov.shape != (hist.dim, hist.dim):
             raise StnsStateError(f"situation {sit.id} shape arrays have the wrong size")
+        _check_situation(sit.id, d, mean, cov, agent.n_behaviours)
         sit.set_shape(mean, cov, d["boundary"], d["fitted"])
         sit.shape_dirty = bool(d["shape_dirty"])
         sit.utility = float(d["utility"])
@@ -167,6 +169,7 @@ def _restore(cls, arrays: dict[str, np.ndarray]) -> StnsAgent:
     agent._plan_utility = float(meta["plan_utility"])
     agent._run = None if meta["running"] is None else _Running.from_dict(meta["running"])
     agent._plan = [(int(b), int(d)) for b, d in meta["plan"]]
+    _check_agent_scalars(agent, learner.next_id)
     agent._prev_reached = meta["prev_reached"]
     agent._pending = [StepRecord.from_dict(r) for r in meta["pending"]]
     agent._margin_uses = {int(k): [bool(u) for u in v]
@@ -176,3 +179,58 @@ def _restore(cls, arrays: dict[str, np.ndarray]) -> StnsAgent:
         raise StnsStateError(f"tries per situation must have {agent.n_behaviours} entries "
                              f"(n_behaviours), got {meta['tries']!r}")
     return agent
+
+
+# A file that unzips can still hold values no learner produces (a hand edit, a flipped bit):
+# loaded, a NaN shape classifies nothing and an unknown behaviour fails only later, mid-run.
+
+def _first_non_finite(arr: np.ndarray) -> tuple[int, ...] | None:
+    bad = np.argwhere(~np.isfinite(arr))
+    return None if bad.size == 0 else tuple(int(i) for i in bad[0])
+
+
+def _check_history(hist: History, n_behaviours: int, next_id: int) -> None:
+    for name in ("x", "x_next", "reward"):
+        at = _first_non_finite(getattr(hist, name))
+        if at is not None:
+            raise StnsStateError(f"history {name} holds a non-finite value "
+                                 f"({getattr(hist, name)[at]}) in slot {at[0]}")
+    valid = np.flatnonzero(hist.valid)
+    bad = valid[(hist.b[valid] < -1) | (hist.b[valid] >= n_behaviours)]
+    if bad.size:
+        raise StnsStateError(f"history behaviour {hist.b[bad[0]]} in slot {bad[0]} is not -1 "
+                             f"(arrival) or 0..{n_behaviours - 1}")
+    for labels in (hist.s, hist.s_next):
+        bad = valid[(labels[valid] < 0) | (labels[valid] >= next_id)]
+        if bad.size:
+            raise StnsStateError(f"history situation label {labels[bad[0]]} in slot {bad[0]} "
+                                 f"is not 0..{next_id - 1}")
+
+
+def _check_situation(sit_id: int, d: dict[str, Any], mean: np.ndarray, cov: np.ndarray,
+                     n_behaviours: int) -> None:
+    for what, arr in (("mean", mean), ("covariance", cov)):
+        at = _first_non_finite(arr)
+        if at is not None:
+            raise StnsStateError(f"situation {sit_id}: {what} holds a non-finite value "
+                                 f"({arr[at]})")
+    boundary, utility = float(d["boundary"]), float(d["utility"])
+    if not (np.isfinite(boundary) and boundary >= 0.0):
+        raise StnsStateError(f"situation {sit_id}: boundary {boundary} is not a finite number "
+                             f">= 0")
+    if not np.isfinite(utility):
+        raise StnsStateError(f"situation {sit_id}: utility {utility} is not finite")
+    if not 0 <= int(d["behaviour"]) < n_behaviours:
+        raise StnsStateError(f"situation {sit_id}: behaviour {d['behaviour']} is not "
+                             f"0..{n_behaviours - 1}")
+
+
+def _check_agent_scalars(agent: StnsAgent, next_id: int) -> None:
+    if not 0 <= agent._current < next_id:
+        raise StnsStateError(f"current situation {agent._current} is not 0..{next_id - 1}")
+    if not np.isfinite(agent._plan_utility):
+        raise StnsStateError(f"plan_utility {agent._plan_utility} is not finite")
+    for b, d in agent._plan:
+        if not 0 <= b < agent.n_behaviours:
+            raise StnsStateError(f"plan step [{b}, {d}]: behaviour {b} is not "
+                                 f"0..{agent.n_behaviours - 1}")

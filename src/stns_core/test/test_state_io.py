@@ -110,6 +110,63 @@ def test_corrupt_or_incompatible_files_are_refused(tmp_path):
         StnsAgent.load(rewrite("future_change.npz", future_change))
 
 
+def _learned_state(tmp_path):
+    """A saved learner with situations, and a writer of edited copies of it."""
+    agent = StnsAgent(StnsConfig.preset("exp1", seed=11), 2, 4)
+    world = KinematicRover(seed=11)
+    drive(agent, world, (world.reset(), 0.0, False), 0, until_steps=700)
+    assert agent.learner.order, "expected situations after 700 steps"
+    good = tmp_path / "good.npz"
+    agent.save(good)
+
+    def rewrite(name, edit):
+        with np.load(good) as data:
+            arrays = {k: data[k].copy() for k in data.files}
+        meta = json.loads(str(arrays["meta"]))
+        edit(meta, arrays)
+        arrays["meta"] = np.array(json.dumps(meta))
+        path = tmp_path / name
+        np.savez(path, **arrays)
+        return path
+
+    return rewrite
+
+
+@pytest.mark.parametrize("name,edit,message", [
+    ("nan_mean", lambda m, a: a["sit0_mean"].__setitem__(0, np.nan),
+     r"situation \d+: mean holds a non-finite value \(nan\)"),
+    ("inf_cov", lambda m, a: a["sit0_cov"].__setitem__((1, 1), np.inf),
+     r"situation \d+: covariance holds a non-finite value \(inf\)"),
+    ("nan_input", lambda m, a: a["hist_x"].__setitem__((3, 1), np.nan),
+     r"history x holds a non-finite value \(nan\) in slot 3"),
+    ("inf_reward", lambda m, a: a["hist_reward"].__setitem__(5, -np.inf),
+     r"history reward holds a non-finite value \(-inf\) in slot 5"),
+    ("bad_behaviour_record", lambda m, a: a["hist_b"].__setitem__(2, 9),
+     r"history behaviour 9 in slot 2 is not -1 \(arrival\) or 0..3"),
+    ("bad_label", lambda m, a: a["hist_s"].__setitem__(4, 10**6),
+     r"history situation label 1000000 in slot 4 is not 0..\d+"),
+    ("nan_boundary", lambda m, a: m["situations"][0].__setitem__("boundary", float("nan")),
+     r"situation \d+: boundary nan is not a finite number >= 0"),
+    ("inf_utility", lambda m, a: m["situations"][0].__setitem__("utility", float("inf")),
+     r"situation \d+: utility inf is not finite"),
+    ("bad_behaviour", lambda m, a: m["situations"][0].__setitem__("behaviour", 17),
+     r"situation \d+: behaviour 17 is not 0..3"),
+    ("bad_current", lambda m, a: m.__setitem__("current", 12345),
+     r"current situation 12345 is not 0..\d+"),
+    ("nan_plan_utility", lambda m, a: m.__setitem__("plan_utility", float("nan")),
+     r"plan_utility nan is not finite"),
+    ("bad_plan", lambda m, a: m.__setitem__("plan", [[7, 0]]),
+     r"plan step \[7, 0\]: behaviour 7 is not 0..3"),
+])
+def test_a_state_with_impossible_values_is_refused(tmp_path, name, edit, message):
+    # a hand-edited or bit-flipped file that still unzips must not load into a learner that
+    # classifies with NaN shapes or plans an unknown behaviour later
+    rewrite = _learned_state(tmp_path)
+    StnsAgent.load(rewrite("unchanged.npz", lambda m, a: None))  # the writer itself is sound
+    with pytest.raises(StnsStateError, match=f"{name}.npz: {message}"):
+        StnsAgent.load(rewrite(f"{name}.npz", edit))
+
+
 def test_failed_save_keeps_the_previous_file(tmp_path, monkeypatch):
     agent = StnsAgent(StnsConfig(), 2, 4)
     path = tmp_path / "learner.npz"
