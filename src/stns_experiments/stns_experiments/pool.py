@@ -61,9 +61,24 @@ def _is_count(v: Any) -> bool:
     return isinstance(v, int) and not isinstance(v, bool) and v >= 0
 
 
-def read_set(path: Path, what: str, exp2: bool = False) -> dict:
+# optional fields of a trial-set result (older runs lack some): [successes, tries] pairs,
+# counts, and non-negative numbers
+PAIR_KEYS = ("success_r", "success_t", "within_two", "success_t2", "success_t3",
+             "success_t4plus")
+COUNT_KEYS = ("steps", "situations_final", "final_ticks", "run_ticks", "run_arrivals")
+NUMBER_KEYS = ("wall_seconds", "cpu_seconds")
+
+
+def _is_pair(v: Any) -> bool:
+    return isinstance(v, list) and len(v) == 2 and all(map(_is_count, v)) and v[0] <= v[1]
+
+
+def read_set(path: Path, what: str, exp2: bool = False, steps: int | None = None,
+             block_size: int | None = None) -> dict:
     """A trial set's result file (sets/*.json) of an STNS learner, checked: its block and
-    final counts (and for Exp. 2 its mode and level) are there and are counts."""
+    final counts (and for Exp. 2 its mode and level) are there and are counts, its optional
+    figures have their kinds, and with ``block_size`` its blocks cover its steps (its own
+    ``steps``, else the run's ``steps``)."""
     r = read_object(path, what)
     need = SET_KEYS + (("mode", "level") if exp2 else ())
     missing = [k for k in need if k not in r]
@@ -79,7 +94,34 @@ def read_set(path: Path, what: str, exp2: bool = False) -> dict:
     if exp2 and (isinstance(r["level"], bool) or not isinstance(r["level"], int | float)):
         raise ExperimentError(f"{what}: {str(path)!r}: level must be a number, "
                               f"got {r['level']!r}")
+    _check_optional(r, path, what)
+    n_bs, n_ar = len(r["block_behaviours"]), len(r["block_arrivals"])
+    if n_bs != n_ar:
+        raise ExperimentError(f"{what}: {str(path)!r}: block_behaviours holds {n_bs} blocks "
+                              f"but block_arrivals {n_ar}")
+    n_steps = r.get("steps", steps)
+    if _is_count(block_size) and block_size > 0 and _is_count(n_steps):
+        want = math.ceil(n_steps / block_size)
+        if n_bs != want:
+            raise ExperimentError(f"{what}: {str(path)!r}: it holds {n_bs} blocks, the run's "
+                                  f"{n_steps} steps in blocks of {block_size} make {want}")
     return r
+
+
+def _check_optional(r: dict, path: Path, what: str) -> None:
+    for k in PAIR_KEYS:
+        if k in r and not _is_pair(r[k]):
+            raise ExperimentError(f"{what}: {str(path)!r}: {k} must be a pair of counts "
+                                  f"[successes, tries], got {r[k]!r}")
+    for k in COUNT_KEYS:
+        if r.get(k) is not None and not _is_count(r[k]):
+            raise ExperimentError(f"{what}: {str(path)!r}: {k} must be a count, got {r[k]!r}")
+    for k in NUMBER_KEYS:
+        v = r.get(k)
+        if v is not None and (isinstance(v, bool) or not isinstance(v, int | float)
+                              or not math.isfinite(v) or v < 0):
+            raise ExperimentError(f"{what}: {str(path)!r}: {k} must be a number >= 0, "
+                                  f"got {v!r}")
 
 
 def _object_in(d: dict, key: str, path: Path, what: str) -> dict:
@@ -109,8 +151,8 @@ def load_run(folder: Path) -> dict[str, Any]:
     if exp not in POOLABLE:
         raise ExperimentError(f"{str(folder)!r}: experiment {exp!r} cannot be pooled "
                               f"(poolable: {', '.join(POOLABLE)})")
-    sets = [read_set(f, "trial-set result", str(exp).startswith("exp2"))
-            for f in _set_files(folder)]
+    sets = [read_set(f, "trial-set result", str(exp).startswith("exp2"), p.get("steps"),
+                     p.get("block_size")) for f in _set_files(folder)]
     if not sets:
         raise ExperimentError(f"{str(folder)!r}: no trial-set results in sets/")
     n = summ.get("trial_sets")
@@ -129,6 +171,7 @@ def load_run(folder: Path) -> dict[str, Any]:
             # --from is recorded as given, relative to where the run was started
             base = folder.resolve().parent.parent / base
         run["base_dir"] = base.resolve()
+        # pre-training ran in blocks of its own run's size: only the run's own blocks checked
         run["base_sets"] = [read_set(f, "pre-training result") for f in _set_files(base)]
     return run
 

@@ -85,7 +85,7 @@ def test_refuses_runs_with_other_settings_naming_the_setting(tmp_path, same_code
                    agent_config={"seed": 0, "p_min": 0.2})
     with pytest.raises(ExperimentError, match=r"setting agent_config\.p_min is 0\.1 .* 0\.2"):
         P.pool([a, b])
-    c = _write_run(tmp_path / "c", 1, [_set("set00", [4] * 4, [2] * 4)],
+    c = _write_run(tmp_path / "c", 1, [_set("set00", [2] * 8, [1] * 8)],
                    params=dict(PARAMS, block_size=50))
     with pytest.raises(ExperimentError, match="setting params.block_size is 100"):
         P.pool([a, c])
@@ -141,6 +141,32 @@ def test_corrupt_or_missing_files_are_named(tmp_path, same_code):
     (a / "sets" / "set00.json").write_text(json.dumps(bad))
     with pytest.raises(ExperimentError, match=r"block_behaviours must be a list of counts, "
                                               r"got \[4, 4, -1, 4\]"):
+        P.pool([a])
+
+
+@pytest.mark.parametrize(("edit", "message"), [
+    (lambda s: s.update(block_behaviours=[4] * 3, block_arrivals=[2] * 3),
+     r"set00\.json': it holds 3 blocks, the run's 400 steps in blocks of 100 make 4"),
+    (lambda s: s.update(block_arrivals=[2] * 5),
+     r"set00\.json': block_behaviours holds 4 blocks but block_arrivals 5"),
+    (lambda s: s.update(success_r=[5, "x"]),
+     r"set00\.json': success_r must be a pair of counts \[successes, tries\], got \[5, 'x'\]"),
+    (lambda s: s.update(within_two=[7, 4]),
+     r"set00\.json': within_two must be a pair of counts \[successes, tries\], got \[7, 4\]"),
+    (lambda s: s.update(situations_final=-1),
+     r"set00\.json': situations_final must be a count, got -1"),
+    (lambda s: s.update(cpu_seconds="fast"),
+     r"set00\.json': cpu_seconds must be a number >= 0, got 'fast'"),
+])
+def test_a_hand_edited_trial_set_result_is_named_not_a_traceback(tmp_path, same_code, edit,
+                                                                 message):
+    # pooling reads the sets/*.json of each run; an edited one must not end in a numpy error
+    a = _write_run(tmp_path / "a", 0, [_set("set00", [4] * 4, [2] * 4)])
+    assert P.pool([a])["trial_sets"] == 1
+    s = json.loads((a / "sets" / "set00.json").read_text())
+    edit(s)
+    (a / "sets" / "set00.json").write_text(json.dumps(s))
+    with pytest.raises(ExperimentError, match=message):
         P.pool([a])
 
 
