@@ -218,7 +218,7 @@ def describe(folder: Path) -> str:
     s = read_summary(folder)
     try:
         return _describe(folder, s)
-    except (AttributeError, KeyError, TypeError, ValueError) as e:
+    except (AttributeError, IndexError, KeyError, TypeError, ValueError) as e:
         raise ExperimentError(f"run summary: {str(folder / 'summary.json')!r} holds a value "
                               f"of the wrong kind ({type(e).__name__}: {e})") from None
 

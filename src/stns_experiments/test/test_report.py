@@ -70,6 +70,8 @@ def test_main_prints_every_folder_in_order(tmp_path, capsys):
     ({"experiment": "exp9"}, "its \"experiment\" is 'exp9'"),
     ({**EXP1, "final_behaviours_to_goal": "fast"}, "holds a value of the wrong kind"),
     ({**EXP2, "levels": {"10deg": 3}}, "holds a value of the wrong kind"),
+    # a success pair cut to one number: named, not an IndexError traceback
+    ({**EXP1, "success_counts_r": [1]}, "holds a value of the wrong kind"),
 ])
 def test_bad_run_folders_are_named(tmp_path, summary, message):
     folder = tmp_path / "run" if summary is None else _run(tmp_path, summary)
