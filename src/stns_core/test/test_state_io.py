@@ -50,6 +50,21 @@ def test_loaded_agent_continues_with_identical_decisions(tmp_path, planner, extr
     assert clone.learner._change_at == agent.learner._change_at
 
 
+def rewriter(good, tmp_path):
+    """A writer of copies of the learner file ``good``, each edited by ``edit(meta, arrays)``."""
+    def rewrite(name, edit):
+        with np.load(good) as data:
+            arrays = {k: data[k].copy() for k in data.files}
+        meta = json.loads(str(arrays["meta"]))
+        edit(meta, arrays)
+        arrays["meta"] = np.array(json.dumps(meta))
+        path = tmp_path / name
+        np.savez(path, **arrays)
+        return path
+
+    return rewrite
+
+
 def test_corrupt_or_incompatible_files_are_refused(tmp_path):
     agent = StnsAgent(StnsConfig(), 2, 4)
     agent.step(np.zeros(2) + 30.0, 0.0, False)
@@ -69,15 +84,7 @@ def test_corrupt_or_incompatible_files_are_refused(tmp_path):
     with pytest.raises(StnsStateError, match="missing.npz: no such file"):
         StnsAgent.load(tmp_path / "missing.npz")
 
-    def rewrite(name, edit):
-        with np.load(good) as data:
-            arrays = {k: data[k] for k in data.files}
-        meta = json.loads(str(arrays["meta"]))
-        edit(meta, arrays)
-        arrays["meta"] = np.array(json.dumps(meta))
-        path = tmp_path / name
-        np.savez(path, **arrays)
-        return path
+    rewrite = rewriter(good, tmp_path)
 
     def future(meta, arrays):
         meta["version"] = 99
@@ -111,25 +118,14 @@ def test_corrupt_or_incompatible_files_are_refused(tmp_path):
 
 
 def _learned_state(tmp_path):
-    """A saved learner with situations, and a writer of edited copies of it."""
+    """A writer of edited copies of a saved learner that has situations."""
     agent = StnsAgent(StnsConfig.preset("exp1", seed=11), 2, 4)
     world = KinematicRover(seed=11)
     drive(agent, world, (world.reset(), 0.0, False), 0, until_steps=700)
     assert agent.learner.order, "expected situations after 700 steps"
     good = tmp_path / "good.npz"
     agent.save(good)
-
-    def rewrite(name, edit):
-        with np.load(good) as data:
-            arrays = {k: data[k].copy() for k in data.files}
-        meta = json.loads(str(arrays["meta"]))
-        edit(meta, arrays)
-        arrays["meta"] = np.array(json.dumps(meta))
-        path = tmp_path / name
-        np.savez(path, **arrays)
-        return path
-
-    return rewrite
+    return rewriter(good, tmp_path)
 
 
 @pytest.mark.parametrize("name,edit,message", [
