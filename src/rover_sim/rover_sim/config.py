@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import numbers
 from collections.abc import Mapping
 from dataclasses import dataclass
 from enum import IntEnum
@@ -68,10 +69,10 @@ class Box:
 
 
 def _finite(name: str, value: Any) -> float:
-    try:
-        f = float(value)
-    except (TypeError, ValueError):
-        raise RoverSimError(f"{name} must be a number, got {value!r}") from None
+    # float() would take YAML's true as 1.0 and a quoted "20" as 20.0: neither is a number here
+    if isinstance(value, bool | np.bool_) or not isinstance(value, numbers.Real):
+        raise RoverSimError(f"{name} must be a number, got {value!r}")
+    f = float(value)
     if not math.isfinite(f):
         raise RoverSimError(f"{name} must be finite, got {value!r}")
     return f

@@ -224,8 +224,8 @@ class RoverWorld:
         Returns (obs, reward, terminated, truncated, info); `truncated` is always False.
         """
         self._check_open()
-        v = _finite_number("v", v)
-        w = _finite_number("w", w)
+        v = _finite("v", v)
+        w = _finite("w", w)
         if self._trial < 0:
             raise RoverSimError("step before reset(): call reset() to start a trial")
         if self._done:
@@ -484,12 +484,6 @@ def _as_action(action: Any) -> Action:
         ) from None
 
 
-def _finite_number(name: str, value: Any) -> float:
-    if isinstance(value, bool):  # a command, unlike a config field, is never a flag
-        raise RoverSimError(f"{name} must be a number, got {value!r}")
-    return _finite(name, value)
-
-
 def _finite_tuple(name: str, value: Any, n: int) -> tuple[float, ...]:
     try:
         items = tuple(value)
@@ -497,7 +491,7 @@ def _finite_tuple(name: str, value: Any, n: int) -> tuple[float, ...]:
         raise RoverSimError(f"{name} must be a sequence of {n} numbers, got {value!r}") from None
     if len(items) != n:
         raise RoverSimError(f"{name} must have {n} numbers, got {value!r}")
-    return tuple(_finite_number(name, x) for x in items)
+    return tuple(_finite(name, x) for x in items)
 
 
 __all__ = ["BehaviourOutcome", "RoverWorld"]

@@ -86,6 +86,11 @@ def test_bench_refuses_a_negative_seed(capsys):
         ("goal", (150.0, 50.0), r"goal must lie inside the room, got \(150.0, 50.0\)"),
         ("goal_region", 120.0, "goal_region must fit in the room"),
         ("start_clear_of_goal", "yes", "start_clear_of_goal must be true or false, got 'yes'"),
+        # YAML's true or a quoted "20" is not a length: float() would make them 1.0 and 20.0
+        ("forward_speed", True, "forward_speed must be a number, got True"),
+        ("rotation_speed_deg", "50", "rotation_speed_deg must be a number, got '50'"),
+        ("range_sensor_noise_std", False, "range_sensor_noise_std must be a number, got False"),
+        ("goal", (50.0, "50"), "goal y must be a number, got '50'"),
     ],
 )
 def test_bad_config_values(field, value, match):
@@ -96,6 +101,8 @@ def test_bad_config_values(field, value, match):
 def test_bad_boxes_and_unknown_fields():
     with pytest.raises(RoverSimError, match="Box sizes must be positive, got sx=-1"):
         Box(10.0, 10.0, -1.0, 5.0)
+    with pytest.raises(RoverSimError, match="Box.cx must be a number, got '10'"):
+        Box("10", 10.0, 5.0, 5.0)
     with pytest.raises(RoverSimError, match="unknown WorldConfig field"):
         WorldConfig.preset("exp1", wheel_size=3)
     with pytest.raises(RoverSimError, match="unknown WorldConfig field"):
@@ -111,6 +118,8 @@ def test_bad_boxes_and_unknown_fields():
         ("goal_sensor_rotation_deg", float("inf"), "got inf"),
         ("range_sensor_noise_std", -0.1, "got -0.1"),
         ("right_wheel_gain", 1.0, "unknown fault 'right_wheel_gain'"),
+        ("left_wheel_gain", True, "left_wheel_gain must be a number, got True"),
+        ("goal_sensor_rotation_deg", "15", "goal_sensor_rotation_deg must be a number, got '15'"),
     ],
 )
 def test_bad_faults(world, name, value, match):
