@@ -38,31 +38,48 @@ def _comparable(rec: dict[str, Any]) -> dict[str, Any]:
     return {k: v for k, v in rec.items() if k not in ("stamp_ns", "run_step")}
 
 
+def _fresh_driver(cfg: dict[str, Any]) -> tuple[Any, int]:
+    """The fresh agent (in its driver) and the input size of the recorded run config; a
+    config or saved learner it cannot be built from is a VerifyError naming what is wrong."""
+    from rover_sim import RoverSimError
+    from stns_core import StnsConfig, StnsError
+    from stns_ros.driver import AgentDriver, action_velocities, make_agent, observation_dim
+
+    if not cfg:
+        raise VerifyError("the bag holds no /stns/run_config: cannot rebuild the agent")
+    for section in ("run", "world", "learner"):
+        if not isinstance(cfg.get(section), dict):
+            raise VerifyError(f"the recorded run config has no {section!r} mapping, got "
+                              f"{cfg.get(section)!r}: cannot rebuild the agent")
+    if cfg["run"].get("mode") != "lockstep":
+        raise VerifyError("only lockstep runs can be verified (free-running may skip frames)")
+    world, learner = cfg["world"], cfg["learner"]
+    try:  # a hand-edited config: the libraries' messages name the field and the value
+        lc = StnsConfig.preset(learner["preset"],
+                               **{**learner["overrides"], "seed": learner["seed"]})
+        dim = observation_dim(world["preset"], world["overrides"])
+        velocities = action_velocities(world["preset"], world["overrides"])
+        state_in = learner["state_in"]
+    except (KeyError, TypeError, StnsError, RoverSimError) as e:
+        raise VerifyError(f"the recorded run config cannot rebuild the agent: "
+                          f"{type(e).__name__}: {e}") from None
+    if state_in and not Path(state_in).exists():
+        raise VerifyError(f"the run started from {state_in!r}, which is gone")
+    try:
+        agent = make_agent(lc.to_dict(), dim, state_in)
+    except (StnsError, StnsRosError) as e:  # damaged or replaced since the run
+        raise VerifyError(f"the run started from the saved learner {state_in!r}, which cannot "
+                          f"be read now: {e}") from None
+    return AgentDriver(agent, velocities), dim
+
+
 def verify(run: RunData) -> str:
     """Re-run the recorded frames through a fresh agent; raise VerifyError at the first
     difference, return a one-line report when everything matches."""
-    from stns_core import StnsConfig
     from stns_ros.conversion import m_to_u
-    from stns_ros.driver import (
-        AgentDriver,
-        action_velocities,
-        make_agent,
-        observation_dim,
-        record_to_dict,
-    )
+    from stns_ros.driver import record_to_dict
 
-    cfg = run.config
-    if not cfg:
-        raise VerifyError("the bag holds no /stns/run_config: cannot rebuild the agent")
-    if cfg["run"]["mode"] != "lockstep":
-        raise VerifyError("only lockstep runs can be verified (free-running may skip frames)")
-    world, learner = cfg["world"], cfg["learner"]
-    lc = StnsConfig.preset(learner["preset"], **{**learner["overrides"], "seed": learner["seed"]})
-    dim = observation_dim(world["preset"], world["overrides"])
-    if learner["state_in"] and not Path(learner["state_in"]).exists():
-        raise VerifyError(f"the run started from {learner['state_in']!r}, which is gone")
-    driver = AgentDriver(make_agent(lc.to_dict(), dim, learner["state_in"]),
-                         action_velocities(world["preset"], world["overrides"]))
+    driver, dim = _fresh_driver(run.config)
     recorded = [_comparable(r) for r in run.steps]
     target = len(recorded)
     if target == 0:

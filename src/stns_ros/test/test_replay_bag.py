@@ -131,3 +131,38 @@ def test_sigterm_stops_a_republish_as_ctrl_c_does(tmp_path, sig):
     import re
     sent = re.search(r"republished (\d+) messages", out)
     assert sent and int(sent.group(1)) < 10, out  # stopped at once, not after the 500 s
+
+
+def _recorded_config(state_in="") -> dict:
+    """A run config as the simulator records it on /stns/run_config (the parts verify reads)."""
+    return {"run": {"mode": "lockstep"}, "world": {"preset": "exp1", "overrides": {}},
+            "learner": {"preset": "exp1", "overrides": {}, "seed": 0, "state_in": state_in}}
+
+
+def test_verify_names_a_saved_learner_that_cannot_be_read_now(tmp_path):
+    # the run's state_in was damaged after the run: a clear failure, not a traceback
+    from stns_ros.replay import VerifyError, verify
+    from stns_ros.summary import RunData
+
+    state = tmp_path / "learner.npz"
+    state.write_bytes(b"PK\x03\x04 cut short")
+    with pytest.raises(VerifyError, match=f"the run started from the saved learner '{state}', "
+                       "which cannot be read now: .*not a readable learner file"):
+        verify(RunData(config=_recorded_config(str(state))))
+
+
+@pytest.mark.parametrize("edit,message", [
+    (lambda c: c.pop("learner"), r"the recorded run config has no 'learner'"),
+    (lambda c: c["world"].update(preset="exp9"), r"the recorded run config cannot rebuild the "
+     r"agent: .*exp9"),
+    (lambda c: c["learner"].update(overrides=[1]), r"the recorded run config cannot rebuild "
+     r"the agent"),
+])
+def test_verify_names_a_recorded_run_config_it_cannot_use(edit, message):
+    from stns_ros.replay import VerifyError, verify
+    from stns_ros.summary import RunData
+
+    cfg = _recorded_config()
+    edit(cfg)
+    with pytest.raises(VerifyError, match=message):
+        verify(RunData(config=cfg))
