@@ -144,6 +144,7 @@ def read_tables(folder: Path, pattern: str) -> list[dict[str, np.ndarray]]:
     files = sorted((Path(folder) / "records").glob(pattern))
     if not files:
         raise ExperimentError(f"{str(folder)!r}: no per-step records records/{pattern}")
+    _check_every_set_recorded(Path(folder), pattern, files)
     tables = []
     for f in files:
         try:
@@ -151,6 +152,18 @@ def read_tables(folder: Path, pattern: str) -> list[dict[str, np.ndarray]]:
         except (OSError, EOFError, ValueError, KeyError, IndexError, csv.Error) as e:
             raise ExperimentError(f"{str(f)!r}: not a readable record file: {e}") from None
     return tables
+
+
+def _check_every_set_recorded(folder: Path, pattern: str, files: list[Path]) -> None:
+    """A trial set with a result (sets/<key>.json) has its records/<key>.csv.gz too: the
+    analysis of the others alone would print their figures as the run's."""
+    recorded = {f.name.split(".")[0] for f in files}
+    for result in sorted((folder / "sets").glob(pattern.replace(".csv*", ".json"))):
+        if result.stem not in recorded:
+            raise ExperimentError(
+                f"{str(folder)!r}: records/{result.stem}.csv.gz is missing, but "
+                f"sets/{result.stem}.json holds that trial set's result; without its records "
+                "the figures would leave it out")
 
 
 def run_params(folder: Path, analysable: tuple[str, ...], refusal: str) -> dict:

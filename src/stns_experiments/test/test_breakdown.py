@@ -129,3 +129,12 @@ def test_runs_of_two_experiments_or_one_run_twice_are_refused(tmp_path, capsys):
             f"{str(three)!r} is exp3") in capsys.readouterr().err
     assert B.main([str(one), str(one)]) == 2
     assert "is named twice: its trial sets would count twice" in capsys.readouterr().err
+
+
+def test_a_trial_set_whose_record_file_is_missing_is_named(tmp_path):
+    exp2 = _run(tmp_path, "exp2-sensor", ["10deg-relearn-00.csv.gz"], name="exp2")
+    (exp2 / "sets").mkdir()
+    for key in ("10deg-relearn-00", "10deg-relearn-01", "10deg-scratch-00"):
+        (exp2 / "sets" / f"{key}.json").write_text("{}")
+    with pytest.raises(ExperimentError, match=r"records/10deg-relearn-01.csv.gz is missing"):
+        B.load(exp2, "10deg", "relearn")

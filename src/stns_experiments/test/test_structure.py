@@ -175,3 +175,17 @@ def test_runs_of_two_experiments_or_one_run_twice_are_refused(tmp_path, capsys):
             f"{str(three)!r} is exp3") in capsys.readouterr().err
     assert S.main([str(one), str(tmp_path / "a" / "." / "run")]) == 2
     assert "is named twice: its trial sets would count twice" in capsys.readouterr().err
+
+
+def test_a_trial_set_whose_record_file_is_missing_is_named(tmp_path, capsys):
+    # sets/set01.json says the run made set 1: analysing set 0 alone would print its figures
+    # as the run's
+    folder = _run_folder(tmp_path, tables=[_set_with_late_type()] * 2)
+    (folder / "sets").mkdir()
+    for k in range(2):
+        (folder / "sets" / f"set{k:02d}.json").write_text("{}")
+    assert "2 trial sets" in S.describe([folder], 4, 8, 0.2)
+    (folder / "records" / "set01.csv.gz").unlink()
+    assert S.main([str(folder)]) == 2
+    err = capsys.readouterr().err
+    assert "records/set01.csv.gz is missing" in err and "sets/set01.json" in err, err
