@@ -71,12 +71,40 @@ def read_summary(folder: Path) -> dict[str, Any]:
     return s
 
 
+class _NotAFigure(ValueError):
+    """A summary value printed as a number that is not one (a hand edit): `describe` names
+    its key."""
+
+    def __init__(self, value: Any) -> None:
+        super().__init__(f"{json_kind(value)}, not a number or null")
+        self.value = value
+
+
+def _figure(v: Any) -> Any:
+    """``v`` if it is a number or None (a boolean is neither: it would print as 100 %)."""
+    if v is not None and (isinstance(v, bool) or not isinstance(v, int | float)):
+        raise _NotAFigure(v)
+    return v
+
+
+def _key_of(d: Any, value: Any, prefix: str = "") -> str | None:
+    """The dotted key of the first entry of ``d`` (nested objects too) holding ``value``."""
+    if not isinstance(d, dict):
+        return None
+    for k, v in d.items():
+        if type(v) is type(value) and v == value:
+            return f"{prefix}{k}"
+        if (inner := _key_of(v, value, f"{prefix}{k}.")) is not None:
+            return inner
+    return None
+
+
 def _pct(v) -> str:
-    return "-" if v is None else f"{100 * v:.1f} %"
+    return "-" if _figure(v) is None else f"{100 * v:.1f} %"
 
 
 def _num(v, nd: int = 2) -> str:
-    if v is None:
+    if _figure(v) is None:
         return "-"
     if isinstance(v, int):
         return str(v)
@@ -218,6 +246,9 @@ def describe(folder: Path) -> str:
     s = read_summary(folder)
     try:
         return _describe(folder, s)
+    except _NotAFigure as e:
+        raise ExperimentError(f"run summary: {str(folder / 'summary.json')!r}: "
+                              f"{_key_of(s, e.value) or 'a figure'} holds {e}") from None
     except (AttributeError, IndexError, KeyError, TypeError, ValueError) as e:
         raise ExperimentError(f"run summary: {str(folder / 'summary.json')!r} holds a value "
                               f"of the wrong kind ({type(e).__name__}: {e})") from None

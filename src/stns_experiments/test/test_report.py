@@ -68,7 +68,7 @@ def test_main_prints_every_folder_in_order(tmp_path, capsys):
     ("{bad", "is not readable JSON"),
     ("[1, 2]", "holds a list [1, 2], not a JSON object"),
     ({"experiment": "exp9"}, "its \"experiment\" is 'exp9'"),
-    ({**EXP1, "final_behaviours_to_goal": "fast"}, "holds a value of the wrong kind"),
+    ({**EXP1, "final_behaviours_to_goal": "fast"}, 'final_behaviours_to_goal holds a string'),
     ({**EXP2, "levels": {"10deg": 3}}, "holds a value of the wrong kind"),
     # a success pair cut to one number: named, not an IndexError traceback
     ({**EXP1, "success_counts_r": [1]}, "holds a value of the wrong kind"),
@@ -78,6 +78,18 @@ def test_bad_run_folders_are_named(tmp_path, summary, message):
     with pytest.raises(ExperimentError, match="summary.json") as err:
         report.describe(folder)
     assert message in str(err.value)
+
+
+@pytest.mark.parametrize("key, value, shown", [
+    ("final_behaviours_to_goal", "fast", 'a string "fast"'),
+    ("success_rate_r", True, "a boolean true"),  # not "100.0 %"
+    ("convergence_step", [1200], "a list [1200]"),
+])
+def test_a_hand_edited_figure_is_named_by_its_key(tmp_path, key, value, shown):
+    folder = _run(tmp_path, {**EXP1, key: value})
+    with pytest.raises(ExperimentError, match="summary.json") as err:
+        report.describe(folder)
+    assert f"{key} holds {shown}, not a number or null" in str(err.value)
 
 
 def test_main_reports_the_error_and_prints_nothing(tmp_path, capsys):
