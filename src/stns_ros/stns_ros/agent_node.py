@@ -117,6 +117,9 @@ class StnsAgentNode(NamedRefusals, Node):
             if folder and not (os.path.isdir(folder) and os.access(folder, os.W_OK)):
                 raise StnsRosError(f"{name}: folder {folder!r} of {p[name]!r} does not exist "
                                    "or is not writable")
+            if p[name] and os.path.isdir(p[name]):
+                raise StnsRosError(f"{name}: {p[name]!r} is a folder; give the file to write "
+                                   "(e.g. a path inside it)")
         self.add_on_set_parameters_callback(self._validate)
         learner = {f.name: p[f.name] for f in learner_fields()}
         try:

@@ -79,6 +79,9 @@ def test_agent_state_out_is_checked_at_start_and_the_learner_kept_at_shutdown(
     with pytest.raises(StnsRosError, match=r"state_out: folder '.*nowhere' of .* does not exist"):
         StnsAgentNode(parameter_overrides=[
             Parameter("state_out", value=str(tmp_path / "nowhere" / "s.npz"))])
+    for name in ("state_out", "stats_out"):  # a folder, not a file to write: every save fails
+        with pytest.raises(StnsRosError, match=f"{name}: '{tmp_path}' is a folder"):
+            StnsAgentNode(parameter_overrides=[Parameter(name, value=str(tmp_path))])
     (tmp_path / "gone").mkdir()
     node = StnsAgentNode(parameter_overrides=[
         Parameter("state_out", value=str(tmp_path / "gone" / "s.npz"))])
