@@ -92,6 +92,20 @@ def _nonnegative(name: str, value: Any) -> float:
     return f
 
 
+def _boxes(value: Any) -> tuple[Box, ...]:
+    """Obstacles given as Box instances or [cx, cy, sx, sy] lists (YAML, JSON); None: none."""
+    if value is None:
+        return ()
+    if isinstance(value, str | bytes | Mapping) or not isinstance(value, tuple | list):
+        raise RoverSimError(f"obstacles must be a list of boxes, got {value!r}")
+    boxes = []
+    for i, b in enumerate(value):
+        if not isinstance(b, Box) and (not isinstance(b, tuple | list) or len(b) != 4):
+            raise RoverSimError(f"obstacles[{i}] must be [cx, cy, sx, sy] in u, got {b!r}")
+        boxes.append(b if isinstance(b, Box) else Box(*b))
+    return tuple(boxes)
+
+
 def validate_fault(name: str, value: Any) -> float:
     """Check one fault value and return it as float; raise RoverSimError naming it."""
     if name not in FAULT_NAMES:
@@ -220,10 +234,9 @@ class WorldConfig:
                 f"known: {', '.join(POST_COLLISION_RULES)}"
             )
         if self.goal is not None:
-            try:
-                gx, gy = self.goal
-            except (TypeError, ValueError):
-                raise RoverSimError(f"goal must be (x, y), got {self.goal!r}") from None
+            if not isinstance(self.goal, tuple | list | np.ndarray) or len(self.goal) != 2:
+                raise RoverSimError(f"goal must be (x, y), got {self.goal!r}")
+            gx, gy = self.goal
             gx, gy = _finite("goal x", gx), _finite("goal y", gy)
             if not (0 < gx < self.room_size and 0 < gy < self.room_size):
                 raise RoverSimError(f"goal must lie inside the room, got {self.goal!r}")
@@ -281,10 +294,8 @@ class WorldConfig:
         """Inverse of `to_dict`; obstacles may be Box or [cx, cy, sx, sy]."""
         d = dict(data)
         if "obstacles" in d:
-            d["obstacles"] = tuple(
-                b if isinstance(b, Box) else Box(*b) for b in (d["obstacles"] or ())
-            )
-        if d.get("goal") is not None:
+            d["obstacles"] = _boxes(d["obstacles"])
+        if isinstance(d.get("goal"), list):
             d["goal"] = tuple(d["goal"])
         names = {f.name for f in dataclasses.fields(cls)}
         unknown = sorted(set(d) - names)
@@ -303,10 +314,6 @@ class WorldConfig:
             raise RoverSimError(f"unknown task {name!r}; known: {', '.join(PRESETS)}")
         base = dict(PRESETS[name])
         base.update(overrides)
-        if "obstacles" in base:
-            base["obstacles"] = tuple(
-                b if isinstance(b, Box) else Box(*b) for b in (base["obstacles"] or ())
-            )
         return cls.from_dict(base)
 
 

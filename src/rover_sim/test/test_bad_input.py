@@ -98,6 +98,26 @@ def test_bad_config_values(field, value, match):
         WorldConfig.preset("exp1", **{field: value})
 
 
+@pytest.mark.parametrize(
+    ("field", "value", "match"),
+    [
+        ("obstacles", [[50, 50]], r"obstacles\[0\] must be \[cx, cy, sx, sy\] in u, got \[50, 50\]"),
+        ("obstacles", [[50, 50, 8, 8, 1]], r"obstacles\[0\] must be \[cx, cy, sx, sy\]"),
+        ("obstacles", [5], r"obstacles\[0\] must be \[cx, cy, sx, sy\] in u, got 5"),
+        ("obstacles", "abc", "obstacles must be a list of boxes, got 'abc'"),
+        ("obstacles", 5, "obstacles must be a list of boxes, got 5"),
+        ("goal", 5, r"goal must be \(x, y\), got 5"),
+        ("goal", "ab", r"goal must be \(x, y\), got 'ab'"),
+    ],
+)
+def test_obstacles_and_goal_of_the_wrong_shape_are_named(field, value, match):
+    # from YAML or JSON (world.overrides): a TypeError of Box() or tuple() named neither
+    with pytest.raises(RoverSimError, match=match):
+        WorldConfig.preset("exp1", **{field: value})
+    with pytest.raises(RoverSimError, match=match):
+        WorldConfig.from_dict({**WorldConfig.preset("exp1").to_dict(), field: value})
+
+
 def test_bad_boxes_and_unknown_fields():
     with pytest.raises(RoverSimError, match="Box sizes must be positive, got sx=-1"):
         Box(10.0, 10.0, -1.0, 5.0)
