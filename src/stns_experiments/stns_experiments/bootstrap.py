@@ -95,6 +95,8 @@ def bootstrap(folders: list[Path], resamples: int = 2000, seed: int = 0,
     """Bootstrap figures of the runs in ``folders`` (see the module docstring)."""
     if isinstance(resamples, bool) or not isinstance(resamples, int) or resamples < 1:
         raise ExperimentError(f"--resamples must be a whole number >= 1, got {resamples!r}")
+    if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
+        raise ExperimentError(f"--seed must be a whole number >= 0, got {seed!r}")
     at = [] if at is None else list(at)
     bad = [s for s in at if isinstance(s, bool) or not isinstance(s, int) or s < 0]
     if bad:

@@ -134,6 +134,8 @@ def test_bad_arguments_and_folders_fail_with_the_value_named(tmp_path, capsys):
     assert "nothing" in capsys.readouterr().err
     assert BS.main([str(run), "--resamples", "0"]) == 2
     assert "got 0" in capsys.readouterr().err
+    assert BS.main([str(run), "--seed", "-1"]) == 2  # was numpy's ValueError traceback
+    assert "--seed must be a whole number >= 0, got -1" in capsys.readouterr().err
     assert BS.main([str(run), str(run)]) == 2
     assert "is named twice" in capsys.readouterr().err
     (run / "config.json").write_text("[]")
