@@ -13,6 +13,7 @@ from __future__ import annotations
 from rclpy.node import Node
 
 from stns_ros import topics as T
+from stns_ros.bag import message_class, message_definition
 from stns_ros.errors import StnsRosError
 from stns_ros.params import NamedRefusals, declare
 from stns_ros.recording import TopicRecorder
@@ -43,6 +44,7 @@ class RecorderNode(NamedRefusals, Node):
         unknown = [t for t in topics if t not in T.TYPES and t not in extra]
         if unknown:
             raise StnsRosError(f"no type known for topic(s) {unknown}; add them to 'types'")
+        _check_types(extra)
         self.recorder = TopicRecorder(self, output, log_time=lambda: self.get_clock().now().nanoseconds,
                                       compression=compression, chunk_size=chunk)
         self.recorder.subscribe(topics, extra)
@@ -50,6 +52,17 @@ class RecorderNode(NamedRefusals, Node):
 
     def close(self) -> None:
         self.recorder.close()
+
+
+def _check_types(types: dict[str, str]) -> None:
+    """Each extra type can be stored and subscribed to, checked before the bag directory is
+    made: a failure after it would leave a half-made bag in the way of the next start."""
+    for topic, msgtype in types.items():
+        try:
+            message_definition(msgtype)
+            message_class(msgtype)
+        except StnsRosError as e:
+            raise StnsRosError(f"types: {topic}={msgtype}: {e}") from None
 
 
 def main(args=None) -> None:

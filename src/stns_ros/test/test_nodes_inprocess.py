@@ -111,6 +111,23 @@ def test_agent_parameters_have_descriptors(rclpy_context):
         node.destroy_node()
 
 
+@pytest.mark.parametrize("msgtype, message", [
+    ("nope/msg/X", "unknown message type 'nope/msg/X'"),
+    ("std_msgs/msg/Nope", "unknown message type 'std_msgs/msg/Nope'"),
+])
+def test_recorder_refuses_an_unknown_type_before_making_the_bag(rclpy_context, tmp_path,
+                                                               msgtype, message):
+    # a half-made bag directory would make the corrected command fail: "exists already"
+    from stns_ros.errors import StnsRosError
+    from stns_ros.recorder_node import RecorderNode
+
+    with pytest.raises(StnsRosError, match=f"types: /x={msgtype}: {message}"):
+        RecorderNode(parameter_overrides=[
+            Parameter("output", value=str(tmp_path / "bag")), Parameter("topics", value=["/x"]),
+            Parameter("types", value=[f"/x={msgtype}"])])
+    assert not (tmp_path / "bag").exists()
+
+
 def test_recorder_records_raw_messages(rclpy_context, tmp_path):
     import rclpy
     from std_msgs.msg import String
