@@ -17,7 +17,7 @@ from rclpy.exceptions import ParameterNotDeclaredException
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 
-from stns_ros.topics import OTHER_TOPICS
+from stns_ros.topics import OTHER_TOPICS, TYPES
 
 # Fault parameters of the simulator node: name -> (lower, upper, lower_open, description).
 FAULT_PARAMS: dict[str, tuple[float, float, bool, str]] = {
@@ -50,6 +50,7 @@ class Tuning:
     description: str
     range: tuple[float, float] | None = None
     read_only: bool = False
+    choices: tuple[str, ...] | None = None  # what each entry of a list parameter may be
 
 
 TUNING: dict[str, dict[str, Tuning]] = {
@@ -63,7 +64,7 @@ TUNING: dict[str, dict[str, Tuning]] = {
         "record_topics": Tuning(
             OTHER_TOPICS,
             "Topics of the other nodes to record (the sim's own topics are always recorded).",
-            read_only=True),
+            read_only=True, choices=tuple(TYPES)),  # the recorder knows these types only
     },
     "stns_agent": {
         "watchdog_timeout": Tuning(
@@ -155,6 +156,8 @@ def check_tuning(node: str, name: str, value: Any) -> tuple[Any, str | None]:
         value = float(value) if ok else value
     if not ok:
         return value, f"{name} must be {kind}, got {value!r}"
+    if t.choices is not None and (bad := [v for v in value if v not in t.choices]):
+        return value, f"{name}: no type known for {bad[0]!r}; known: {', '.join(t.choices)}"
     if t.range is not None and not t.range[0] <= value <= t.range[1]:
         return value, f"{name} must be in [{t.range[0]:g}, {t.range[1]:g}], got {value!r}"
     return value, None

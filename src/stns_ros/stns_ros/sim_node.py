@@ -35,6 +35,7 @@ from stns_ros.params import (
     NamedRefusals,
     check_choice,
     check_fault,
+    check_tuning,
     declare,
     declare_tuning,
     result,
@@ -66,6 +67,9 @@ class RoverSimNode(NamedRefusals, Node):
             range=(0.01, 100.0))
         for name in ("publish_ranges", "resend_period", "record_topics"):
             p[name] = declare_tuning(self, "rover_sim", name)
+        _, reason = check_tuning("rover_sim", "record_topics", p["record_topics"])
+        if reason:  # before the bag is made: a KeyError in the recorder would leave half of it
+            raise StnsRosError(reason)
         p["record_path"] = declare(
             self, "record_path", "", "rosbag2 directory to record the run into ('' = off).",
             read_only=True)

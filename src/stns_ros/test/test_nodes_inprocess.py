@@ -65,6 +65,16 @@ def test_bad_start_parameters_are_refused(rclpy_context):
         RoverSimNode(parameter_overrides=[Parameter("world_overrides", value='{"room_size": -3}')])
 
 
+def test_an_unknown_record_topic_is_refused_before_the_bag_is_made(rclpy_context, tmp_path):
+    from stns_ros.errors import StnsRosError
+    from stns_ros.sim_node import RoverSimNode
+
+    with pytest.raises(StnsRosError, match="record_topics: no type known for '/nope'"):
+        RoverSimNode(parameter_overrides=[Parameter("record_path", value=str(tmp_path / "bag")),
+                                          Parameter("record_topics", value=["/nope"])])
+    assert not (tmp_path / "bag").exists()
+
+
 def test_agent_state_out_is_checked_at_start_and_the_learner_kept_at_shutdown(
         rclpy_context, tmp_path):
     import os

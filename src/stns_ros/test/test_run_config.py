@@ -153,6 +153,8 @@ def _nodes_file(tmp_path, params: dict) -> dict:
     ({"rover_sim": {"publish_ranges": 1}}, r"rover_sim.publish_ranges must be true or false"),
     ({"rover_sim": {"record_topics": "/stns/plan"}},
      r"rover_sim.record_topics must be a list of strings"),
+    ({"rover_sim": {"record_topics": ["/stns/plan", "/nope"]}},  # the simulator died of it
+     r"rover_sim.record_topics: no type known for '/nope'; known: .*/stns/steps"),
 ])
 def test_a_bad_tuning_file_is_refused_naming_node_parameter_and_value(tmp_path, params, match):
     with pytest.raises(StnsRosError, match=match):
