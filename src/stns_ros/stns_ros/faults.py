@@ -31,6 +31,8 @@ import yaml
 from stns_ros.errors import StnsRosError
 from stns_ros.params import FAULT_NEUTRAL, FAULT_PARAMS, check_fault
 
+# a ramp's parameter changes are listed when it fires: 10^4 is 1000 s of 0.1-s ticks
+MAX_INCREMENTS = 10_000
 ENTRY_KEYS = {"at_step", "at_time", "set", "ramp", "clear", "duration", "increments", "note"}
 
 
@@ -160,8 +162,10 @@ def parse_scenario(data: Any, source: str = "") -> FaultScenario:
             if duration <= 0:
                 raise StnsRosError(f"{w}.duration must be > 0 sim seconds, got {e['duration']!r}")
             increments = e.get("increments", 10)
-            if isinstance(increments, bool) or not isinstance(increments, int) or increments < 1:
-                raise StnsRosError(f"{w}.increments must be an integer >= 1, got {increments!r}")
+            if (isinstance(increments, bool) or not isinstance(increments, int)
+                    or not 1 <= increments <= MAX_INCREMENTS):
+                raise StnsRosError(f"{w}.increments must be an integer in [1, {MAX_INCREMENTS}], "
+                                   f"got {increments!r}")
         else:
             for k in ("duration", "increments"):
                 if k in e:

@@ -33,6 +33,9 @@ def test_round_trip_through_plain_data():
     ({"at_step": 1, "ramp": {"left_wheel_gain": 0.9}, "duration": -1}, r"duration must be > 0"),
     ({"at_step": 1, "set": {"left_wheel_gain": "fast"}}, r"must be a number, got 'fast'"),
     ({"at_step": 1, "clear": True, "typo": 1}, r"unknown key\(s\) \['typo'\]"),
+    # a list of 10^9 ramp points would exhaust the injector's memory when the fault fires
+    ({"at_step": 1, "ramp": {"left_wheel_gain": 0.9}, "duration": 10, "increments": 10**9},
+     r"increments must be an integer in \[1, 10000\], got 1000000000"),
 ])
 def test_bad_entries_are_refused_with_the_key(entry, match):
     with pytest.raises(StnsRosError, match=match):
