@@ -87,16 +87,17 @@ def _figure(v: Any) -> Any:
     return v
 
 
-def _key_of(d: Any, value: Any, prefix: str = "") -> str | None:
-    """The dotted key of the first entry of ``d`` (nested objects too) holding ``value``."""
+def _keys_of(d: Any, value: Any, prefix: str = "") -> list[str]:
+    """The dotted keys of every entry of ``d`` (nested objects too) holding ``value``: the
+    first alone could be another entry of the same value (a true flag beside a true rate)."""
     if not isinstance(d, dict):
-        return None
+        return []
+    keys = []
     for k, v in d.items():
         if type(v) is type(value) and v == value:
-            return f"{prefix}{k}"
-        if (inner := _key_of(v, value, f"{prefix}{k}.")) is not None:
-            return inner
-    return None
+            keys.append(f"{prefix}{k}")
+        keys += _keys_of(v, value, f"{prefix}{k}.")
+    return keys
 
 
 def _pct(v) -> str:
@@ -248,7 +249,7 @@ def describe(folder: Path) -> str:
         return _describe(folder, s)
     except _NotAFigure as e:
         raise ExperimentError(f"run summary: {str(folder / 'summary.json')!r}: "
-                              f"{_key_of(s, e.value) or 'a figure'} holds {e}") from None
+                              f"{' or '.join(_keys_of(s, e.value)) or 'a figure'} holds {e}") from None
     except (AttributeError, IndexError, KeyError, TypeError, ValueError) as e:
         raise ExperimentError(f"run summary: {str(folder / 'summary.json')!r} holds a value "
                               f"of the wrong kind ({type(e).__name__}: {e})") from None
