@@ -46,7 +46,8 @@ LIBRARY_DIRS = ("src/stns_core/stns_core", "src/rover_sim/rover_sim",
 # modules that only summarise, print or draw finished runs: no trial set runs through them
 REPORT_ONLY = ("stns_experiments/pool.py", "stns_experiments/report.py",
                "stns_experiments/plots.py", "stns_experiments/structure.py",
-               "stns_experiments/bootstrap.py", "stns_experiments/breakdown.py")
+               "stns_experiments/bootstrap.py", "stns_experiments/breakdown.py",
+               "stns_experiments/fault_reach.py")
 POOLABLE = ("exp1", "exp3", "exp2-sensor", "exp2-actuator")
 
 
