@@ -44,7 +44,7 @@ DRIVES = (0, 1)
 #: Where the replay puts the goal (u), and the direction from it to the rover.
 GOAL_AT = (15.0, 15.0)
 _AWAY = (math.sqrt(0.5), math.sqrt(0.5))
-#: Longest drive the placement keeps clear of the walls (u).
+#: Longest drive replayed (u); `max_distance` lowers it in a smaller room.
 MAX_DISTANCE = 100.0
 EXTRA_TICKS = 20
 
@@ -138,11 +138,41 @@ def _records_folder(folder: Path, params: dict) -> Path:
     return Path(params["from"]) if params.get("from") else folder / "base"
 
 
+def _replay_world(folder: Path, params: dict):
+    """The run's world, refused where a replayed drive could fail for another reason than the
+    fault: an obstacle on its way, a noisy goal sensor, a room too small for the placement."""
+    from stns_experiments.experiments import world_config
+
+    w = params.get("world")
+    if not (isinstance(w, dict) and isinstance(w.get("preset"), str)
+            and isinstance(w.get("overrides"), dict)):
+        raise ExperimentError(f"{str(folder)!r}: config.json params.world must be a mapping "
+                              f"with a preset name and overrides, got {w!r}")
+    cfg = world_config(params)
+    if cfg.obstacles:
+        raise ExperimentError(f"{str(folder)!r}: its world has {len(cfg.obstacles)} "
+                              "obstacle(s); the replay needs the clear room of Exp. 1")
+    if cfg.goal_sensor_noise_std:
+        raise ExperimentError(f"{str(folder)!r}: its goal sensor has noise (std "
+                              f"{cfg.goal_sensor_noise_std!r}); the replay cannot reproduce "
+                              "a recorded reading through it")
+    if max_distance(cfg) <= cfg.goal_radius:
+        raise ExperimentError(f"{str(folder)!r}: its room ({cfg.room_size!r} u) is too small "
+                              "for the replay's placement")
+    return cfg
+
+
+def max_distance(cfg) -> float:
+    """The longest drive the placement keeps clear of the walls in ``cfg``'s room (u): the
+    rover's half-diagonal from the far walls along the diagonal, at most `MAX_DISTANCE`."""
+    half_diagonal = math.hypot(cfg.rover_length, cfg.rover_width) / 2.0
+    room_left = cfg.room_size - GOAL_AT[0] - half_diagonal
+    return min(MAX_DISTANCE, math.sqrt(2.0) * room_left)
+
+
 def describe(folders: list[Path], faults: list[Fault], window: int, sample: int | None,
              seed: int) -> str:
     """The printed shares of the drive arrivals of ``folders`` kept under each fault."""
-    from stns_experiments.experiments import world_config
-
     check_together(folders, ANALYSABLE, "has no fault-reach analysis")
     xs, bs, config = [], [], None
     read: dict[Path, Path] = {}
@@ -155,29 +185,31 @@ def describe(folders: list[Path], faults: list[Fault], window: int, sample: int 
                                   f"the pre-training {str(where)!r}: its learners would count "
                                   "twice")
         read[where.resolve()] = folder
-        for t in read_tables(where, "set*.csv*"):
-            x, b = drive_arrivals(t, window or final)
-            xs.append(x)
-            bs.append(b)
-        cfg = world_config(params)
+        cfg = _replay_world(folder, params)
         if config is not None and cfg != config:
             raise ExperimentError(f"{str(folder)!r}: its world differs from the first run's; "
                                   "analyse runs of one world together")
         config = cfg
+        for t in read_tables(where, "set*.csv*"):
+            x, b = drive_arrivals(t, window or final)
+            xs.append(x)
+            bs.append(b)
     inputs, behaviours = np.concatenate(xs), np.concatenate(bs)
     total = len(inputs)
-    dist = np.hypot(inputs[:, 0], inputs[:, 1]) if total else np.zeros(0)
-    if (dist > MAX_DISTANCE).any():
-        keep = dist <= MAX_DISTANCE
-        inputs, behaviours, dist = inputs[keep], behaviours[keep], dist[keep]
-    if sample is not None and sample < len(inputs):
+    dist = np.hypot(inputs[:, 0], inputs[:, 1])
+    keep = dist <= max_distance(config)
+    inputs, behaviours, dist = inputs[keep], behaviours[keep], dist[keep]
+    sampled = sample is not None and sample < len(inputs)
+    if sampled:
         pick = np.sort(np.random.default_rng(seed).choice(len(inputs), sample, replace=False))
         inputs, behaviours, dist = inputs[pick], behaviours[pick], dist[pick]
     if not len(inputs):
         raise ExperimentError("no drive arrivals in the window of the runs given")
+    far = int((~keep).sum())
     lines = [f"{total} drive arrivals in the last {window or 'final_window'} steps of "
              f"{', '.join(str(f) for f in folders)}; replayed: {len(inputs)}"
-             + (f" (sampled, seed {seed})" if sample is not None and sample < total else "")
+             + (f" ({far} starting beyond {max_distance(config):.1f} u left out)" if far else "")
+             + (f" (sampled, seed {seed})" if sampled else "")
              + f"; start distance median {np.median(dist):.1f} u, quartiles "
              f"{np.quantile(dist, 0.25):.1f} / {np.quantile(dist, 0.75):.1f}"]
     for row in kept_shares(inputs, behaviours, faults, config):

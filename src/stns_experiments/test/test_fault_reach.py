@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import math
+import re
 
 import numpy as np
 import pytest
@@ -138,3 +139,32 @@ def test_an_exp2_run_is_read_from_its_pre_training_and_counted_once(tmp_path, ca
     (other / "config.json").write_text(json.dumps(cfg))
     assert F.main([str(tmp_path / "run"), str(other)]) == 2
     assert "share the pre-training" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("world, message", [
+    (None, "params.world must be a mapping with a preset name and overrides, got None"),
+    ({"preset": "exp3", "overrides": {}}, "obstacle"),
+    ({"preset": "exp1", "overrides": {"goal_sensor_noise_std": 0.5}}, "noise \\(std 0.5\\)"),
+    ({"preset": "exp1", "overrides": {"room_size": 20.0, "goal_region": 10.0,
+                                      "rover_length": 8.0, "rover_width": 6.0}},
+     "room \\(20.0 u\\) is too small"),
+])
+def test_a_world_the_replay_cannot_reproduce_is_refused(tmp_path, capsys, world, message):
+    folder = _run_folder(tmp_path, [_set_table()])
+    cfg = json.loads((folder / "config.json").read_text())
+    cfg["params"]["world"] = world
+    (folder / "config.json").write_text(json.dumps(cfg))
+    assert F.main([str(folder)]) == 2
+    assert re.search(message, capsys.readouterr().err)
+
+
+def test_drives_too_long_for_the_room_are_left_out_and_counted(tmp_path, capsys):
+    folder = _run_folder(tmp_path, [_set_table()])
+    cfg = json.loads((folder / "config.json").read_text())
+    # drives of up to 35.4 u: (-40, 2) is left out
+    cfg["params"]["world"]["overrides"].update(room_size=50.0, goal_region=30.0)
+    (folder / "config.json").write_text(json.dumps(cfg))
+    assert F.main([str(folder), "--rotations", "--wheel-slower"]) == 0
+    out = capsys.readouterr().out
+    assert "replayed: 1 (1 starting beyond 35.4 u left out)" in out
+    assert "no fault: 1 of 1 arrive (100.0 %)" in out
