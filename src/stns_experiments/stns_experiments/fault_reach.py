@@ -164,7 +164,8 @@ def _replay_world(folder: Path, params: dict):
 
 def max_distance(cfg) -> float:
     """The longest drive the placement keeps clear of the walls in ``cfg``'s room (u): the
-    rover's half-diagonal from the far walls along the diagonal, at most `MAX_DISTANCE`."""
+    rover, placed on the diagonal, stays its half-diagonal from the far walls; at most
+    `MAX_DISTANCE`."""
     half_diagonal = math.hypot(cfg.rover_length, cfg.rover_width) / 2.0
     room_left = cfg.room_size - GOAL_AT[0] - half_diagonal
     return min(MAX_DISTANCE, math.sqrt(2.0) * room_left)
