@@ -41,7 +41,7 @@ def test_the_placed_rover_reads_the_recorded_input_through_the_faulty_sensor(x, 
     ((20.0, 0.0), 0, F.Fault(rotation_deg=10.0), True),
     ((40.0, 0.0), 0, F.Fault(rotation_deg=10.0), False),
     ((-40.0, 0.0), 1, F.Fault(rotation_deg=-10.0), False),
-    # the rover reads the goal 10 degrees off where it is: aimed there, the drive arrives
+    # read 10 degrees left of dead ahead through a 10-degree rotation, the goal is dead ahead
     ((40.0 * math.cos(math.radians(10)), 40.0 * math.sin(math.radians(10))), 0,
      F.Fault(rotation_deg=10.0), True),
     # 5 % slower left wheel: an arc of radius about 187 u, 2.4 u off after 30 u, 17 u after 80
