@@ -115,18 +115,18 @@ def kept_shares(inputs: np.ndarray, behaviours: np.ndarray, faults: list[Fault],
     """For each fault: the drives replayed, those that arrived, and the share kept."""
     import rover_sim
 
+    n, dist = len(inputs), np.hypot(inputs[:, 0], inputs[:, 1])
     rows = []
     with rover_sim.RoverWorld(world_config, seed=0) as world:
         for fault in faults:
             arrived = sum(replay(world, x, b, fault) for x, b in zip(inputs, behaviours,
                                                                        strict=True))
-            n = len(inputs)
             far = miss_distance(fault.rotation_deg, world_config.goal_radius)
             rows.append({"fault": fault.label, "drives": n, "arrived": arrived,
                          "kept": arrived / n if n else math.nan,
                          "miss_distance": far,
                          "beyond_miss_distance": None if far is None else
-                         float(np.mean(np.hypot(inputs[:, 0], inputs[:, 1]) > far))})
+                         float(np.mean(dist > far))})
     return rows
 
 
