@@ -298,8 +298,6 @@ class Learner:
                     own, b, reward, s_next, terminal):
                 own.neg[slot] = True
                 own.nn_dirty = True
-                if cfg.shape_positives == "uncontradicted":
-                    own.shape_dirty = True  # a new miss may contradict positives of the shape
         if cfg.contradiction_radius > 0.0 and b >= 0:
             self._forget_contradicted(slot)
         self._version += 1
@@ -323,41 +321,10 @@ class Learner:
     def _fit(self, sit: Situation) -> None:
         """Operation 2 on one situation, with the shape options of section 7.3 if set."""
         cfg = self.cfg
-        if (cfg.shape_positives == "uncontradicted" and sit.kind == R_KIND and sit.fitted
-                and self._recent is not None):
-            keep = self._uncontradicted(sit)
-            if keep is not None:
-                full = sit.pos
-                sit.pos = keep
-                try:
-                    sit.fit(self.hist.x, cfg.cov_reg)
-                finally:
-                    sit.pos = full
-                return
         if cfg.shape_scope == "all" or sit.kind == T_KIND:
             sit.fit(self.hist.x, cfg.cov_reg, cfg.shape_trim, cfg.boundary_quantile)
         else:
             sit.fit(self.hist.x, cfg.cov_reg)
-
-    def _uncontradicted(self, sit: Situation) -> np.ndarray | None:
-        """Option shape_positives="uncontradicted": the positives whose nearest other
-        instance among the newest ``nn_window`` records (std-scaled, the last fit's scale)
-        is not a negative; None when no recent negative exists or fewer than d + 1 remain."""
-        members = (sit.pos | sit.neg) & self._recent
-        if not (members & ~sit.pos).any():
-            return None
-        pos_idx = np.flatnonzero(sit.pos)
-        mem_idx = np.flatnonzero(members)
-        a = self.hist.x[pos_idx] / sit.std
-        b = self.hist.x[mem_idx] / sit.std
-        d2 = np.sum(a * a, 1)[:, None] + np.sum(b * b, 1)[None, :] - 2.0 * a @ b.T
-        d2[pos_idx[:, None] == mem_idx[None, :]] = np.inf
-        nearest = mem_idx[np.argmin(d2, axis=1)]
-        keep = np.zeros_like(sit.pos)
-        keep[pos_idx[sit.pos[nearest]]] = True
-        if np.count_nonzero(keep) < self.dim + 1:
-            return None
-        return keep
 
     # -- extraction -------------------------------------------------------------------
     def _extract(self) -> bool:

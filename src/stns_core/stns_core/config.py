@@ -110,7 +110,6 @@ class StnsConfig:
     shape_scope: str = "all"
     negatives_from_history: bool = False
     range_clip: float = 0.0
-    shape_positives: str = "all"
 
     def __post_init__(self) -> None:
         ints = {
@@ -186,7 +185,7 @@ class StnsConfig:
             "margin_plan": MARGIN_PLANS, "useless": USELESS, "r_break_forget": R_BREAK_FORGETS,
             "margin_stn": MARGIN_STNS, "miss_stop": MISS_STOPS, "no_plan": NO_PLANS,
             "explore_untried_stop": EXPLORE_UNTRIED_STOPS, "pending_r_try": PENDING_R_TRIES,
-            "pending_t_try": PENDING_T_TRIES, "shape_positives": ("all", "uncontradicted"),
+            "pending_t_try": PENDING_T_TRIES,
         }
         for name, allowed in choices.items():
             value = getattr(self, name)

@@ -513,25 +513,3 @@ def test_contradiction_window_waits_for_a_change_point(window):
         assert valid[0][:6] == [True] * 6 and valid[1][:7] == [True] * 7
         assert lr._change_at == 5
     assert valid[2] == before
-
-
-def test_shape_positives_uncontradicted_leaves_a_bitten_success_out_of_the_shape():
-    """An old success at (6, 0) stretches the R-situation's ellipsoid beyond its ring of
-    successes; a recent miss beside it makes it contradicted (its nearest instance among
-    the newest records is a negative). With "all" the shape still reaches (4, 0), where the
-    NN test accepts (the ring's (2, 0) is nearer than the miss); "uncontradicted" fits the
-    shape on the ring only, so (4, 0) falls outside, while the ring stays inside."""
-    far, query = np.array([6.0, 0.0]), np.array([4.0, 0.0])
-    out = {}
-    for opt in ("all", "uncontradicted"):
-        lr = make_learner(n_init_r=3, n_min_r=3, nn_window=9, shape_positives=opt)
-        lr.add_record(far, 0, 0, 10.0, far, 0, True)
-        for k in range(8):
-            add_goal_record(lr, k)
-        (r,) = lr.order
-        lr.add_record(np.array([6.2, 0.0]), r.id, 0, -1.0, np.array([40.0, 40.0]), 0, False)
-        assert r.neg.any() and r.pos[0]  # the miss is a negative; (6, 0) is still positive
-        out[opt] = (lr.classify(query) == r.id, lr.classify(GOAL_PTS[0]) == r.id,
-                    round(float(r.mean[0]), 3))
-    assert out["all"][:2] == (True, True)
-    assert out["uncontradicted"] == (False, True, 0.0)

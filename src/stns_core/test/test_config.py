@@ -70,7 +70,6 @@ def test_round_trip_and_replace():
     ("stn_half_life", float("inf"), "stn_half_life must be finite"),
     ("margin_stn", "window", "margin_stn must be one of"),
     ("miss_stop", "closest", "miss_stop must be one of"),
-    ("shape_positives", "recent", "shape_positives must be one of"),
     ("miss_stop", False, "got the boolean False \\(in YAML, quote"),  # YAML's `off`
 ])
 def test_bad_values_raise_named_errors(key, value, match):
