@@ -1,7 +1,7 @@
 """How much a run's step figures move with its sample of trial sets: a bootstrap over sets.
 
     python -m stns_experiments.bootstrap RUN ... [--resamples 2000] [--seed 0] [--any-code]
-                                         [--at STEP ...] [--json FILE]
+                                         [--at STEP ...] [--size N] [--json FILE]
 
 The convergence step (Exp. 1, 3) and the Exp. 2 delay and blocks above the pre-fault band are
 read off a pooled curve, each as the last block outside a 10 % band, so a run of 10 or 20
@@ -13,6 +13,9 @@ Exp. 2 resamples the relearning, the from-scratch and the pre-training sets of e
 independently (they are independent samples). ``--at`` adds the share of resamples whose
 convergence step is at or below each given step. Resamples whose figure is undefined (the
 curve never stays in the band) count as above every step and are reported as such.
+``--size N`` (Exp. 1, 3) draws N of the pooled sets, without replacement, instead of as many
+as there are with replacement: the spread of the figure a run of N sets would report, e.g. the
+paper's 20, from a pool of many more.
 """
 
 from __future__ import annotations
@@ -91,8 +94,10 @@ def spread(sample: float | None, draws: list[float | None], at: list[int]) -> di
 
 
 def bootstrap(folders: list[Path], resamples: int = 2000, seed: int = 0,
-              any_code: bool = False, at: list[int] | None = None) -> dict[str, Any]:
-    """Bootstrap figures of the runs in ``folders`` (see the module docstring)."""
+              any_code: bool = False, at: list[int] | None = None,
+              size: int | None = None) -> dict[str, Any]:
+    """Bootstrap figures of the runs in ``folders`` (see the module docstring); ``size``:
+    sets per draw, without replacement (Exp. 1, 3; None: all, with replacement)."""
     if isinstance(resamples, bool) or not isinstance(resamples, int) or resamples < 1:
         raise ExperimentError(f"--resamples must be a whole number >= 1, got {resamples!r}")
     if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
@@ -101,20 +106,28 @@ def bootstrap(folders: list[Path], resamples: int = 2000, seed: int = 0,
     bad = [s for s in at if isinstance(s, bool) or not isinstance(s, int) or s < 0]
     if bad:
         raise ExperimentError(f"--at takes steps >= 0, got {bad[0]!r}")
+    if size is not None and (isinstance(size, bool) or not isinstance(size, int) or size < 1):
+        raise ExperimentError(f"--size must be a whole number >= 1, got {size!r}")
     c = collect(folders, any_code)
     p = c["params"]
+    if size is not None and p["experiment"] not in ("exp1", "exp3"):
+        raise ExperimentError(f"--size is for exp1 and exp3 runs, not {p['experiment']}")
     rng = np.random.default_rng(seed)
     out: dict[str, Any] = {"experiment": p["experiment"], "resamples": resamples,
                            "seed": seed, "pooled_from": c["pooled_from"]}
     if p["experiment"] in ("exp1", "exp3"):
         bs, ar, fin = _counts(c["sets"])
         n = len(bs)
+        if size is not None and size > n:
+            raise ExperimentError(f"--size {size} is more than the {n} trial sets pooled")
         draws = []
         for _ in range(resamples):
-            i = rng.integers(n, size=n)
+            i = (rng.integers(n, size=n) if size is None
+                 else rng.choice(n, size=size, replace=False))
             draws.append(learning_figures(bs[i], ar[i], fin[i], p))
         own = learning_figures(bs, ar, fin, p)
         out["trial_sets"] = n
+        out["size"] = size
         out["figures"] = {k: spread(own[k], [d[k] for d in draws], at if "step" in k else [])
                           for k in own}
         return out
@@ -161,7 +174,10 @@ def describe(s: dict) -> str:
              "band (counted as above every step).", ""]
     if "figures" in s:
         at = list(s["figures"]["convergence_step"]["at_or_below"])
-        lines.append(f"{s['trial_sets']} trial sets.")
+        lines.append(f"{s['trial_sets']} trial sets" + (
+            "." if s.get("size") is None else
+            f"; each draw {s['size']} of them without replacement (the figure a run of "
+            f"{s['size']} sets would report)."))
         lines.append("")
         lines.append("| figure | sample | resampled quantiles | undefined |"
                      + "".join(f" at or below {a} |" for a in at))
@@ -197,10 +213,14 @@ def main(argv: list[str] | None = None) -> int:
                          "these steps")
     ap.add_argument("--any-code", action="store_true",
                     help="pool runs made on different library code (named in the output)")
+    ap.add_argument("--size", type=int, default=None,
+                    help="Exp. 1, 3: draw this many of the pooled sets without replacement "
+                         "(the spread a run of that many sets would show)")
     ap.add_argument("--json", type=Path, help="also write the figures to this file")
     args = ap.parse_args(argv)
     try:
-        s = bootstrap(args.runs, args.resamples, args.seed, args.any_code, args.at)
+        s = bootstrap(args.runs, args.resamples, args.seed, args.any_code, args.at,
+                      args.size)
     except ExperimentError as e:
         sys.stderr.write(f"error: {e}\n")
         return 2

@@ -117,6 +117,8 @@ def test_exp2_without_scratch_sets_still_gives_the_blocks_above_the_band(tmp_pat
     # above 1.1 x the pre-fault 2.0: 6.0, 2.5 and 2.3; no scratch curve, so no delay
     assert e["scratch_sets"] == 0 and e["blocks_worse_than_prefault"]["sample"] == 3
     assert e["delay_steps"]["sample"] is None and e["delay_steps"]["undefined"] == 1.0
+    with pytest.raises(ExperimentError, match="--size is for exp1 and exp3 runs, not exp2"):
+        BS.bootstrap([run], resamples=20, size=1)
 
 
 @pytest.mark.parametrize("resamples", [0, -3, True, 2.5])
@@ -157,3 +159,32 @@ def test_main_prints_the_table_and_writes_strict_json(tmp_path, capsys):
 
     s = json.loads(out.read_text(), parse_constant=refuse)
     assert s["resamples"] == 200 and s["figures"]["convergence_step"]["sample"] == 400
+
+
+def test_size_draws_that_many_sets_without_replacement(tmp_path):
+    """Three fast and three slow sets. A draw of one set gives that set's own figure (100
+    or 400), each about half the time; a draw of all six without replacement is the pool
+    itself, every time: no spread, the pooled figure."""
+    run = _run(tmp_path, "a", 0, [FAST, SLOW] * 3)
+    pooled = P.pool([run])["convergence_step"]
+    one = BS.bootstrap([run], resamples=4000, seed=1, at=[100], size=1)
+    conv = one["figures"]["convergence_step"]
+    assert one["size"] == 1 and one["trial_sets"] == 6
+    assert conv["sample"] == pooled
+    assert conv["quantiles"]["2.5"] == 100 and conv["quantiles"]["97.5"] == 400
+    assert conv["at_or_below"]["100"] == pytest.approx(0.5, abs=0.03)
+    assert "each draw 1 of them without replacement" in BS.describe(one)
+    every = BS.bootstrap([run], resamples=50, seed=1, at=[100], size=6)
+    assert set(every["figures"]["convergence_step"]["quantiles"].values()) == {pooled}
+    assert BS.bootstrap([run], resamples=50, seed=1)["size"] is None
+
+
+@pytest.mark.parametrize("size, match", [
+    (0, "--size must be a whole number >= 1, got 0"),
+    (True, "--size must be a whole number >= 1, got True"),
+    (7, "--size 7 is more than the 6 trial sets pooled"),
+])
+def test_a_bad_size_is_named(tmp_path, size, match):
+    run = _run(tmp_path, "a", 0, [FAST, SLOW] * 3)
+    with pytest.raises(ExperimentError, match=match):
+        BS.bootstrap([run], resamples=10, size=size)
