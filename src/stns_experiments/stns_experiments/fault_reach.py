@@ -110,12 +110,13 @@ def miss_distance(rotation_deg: float, goal_radius: float) -> float | None:
     return None if s < 1e-12 else goal_radius / s
 
 
-def kept_shares(inputs: np.ndarray, behaviours: np.ndarray, faults: list[Fault],
-                world_config) -> list[dict]:
-    """For each fault: the drives replayed, those that arrived, and the share kept."""
+def kept_shares(inputs: np.ndarray, behaviours: np.ndarray, dist: np.ndarray,
+                faults: list[Fault], world_config) -> list[dict]:
+    """For each fault: the drives replayed, those that arrived, and the share kept
+    (``dist``: each input's distance to the goal, for the share beyond the miss distance)."""
     import rover_sim
 
-    n, dist = len(inputs), np.hypot(inputs[:, 0], inputs[:, 1])
+    n = len(inputs)
     rows = []
     with rover_sim.RoverWorld(world_config, seed=0) as world:
         for fault in faults:
@@ -213,7 +214,7 @@ def describe(folders: list[Path], faults: list[Fault], window: int, sample: int 
              + (f" (sampled, seed {seed})" if sampled else "")
              + f"; start distance median {np.median(dist):.1f} u, quartiles "
              f"{np.quantile(dist, 0.25):.1f} / {np.quantile(dist, 0.75):.1f}"]
-    for row in kept_shares(inputs, behaviours, faults, config):
+    for row in kept_shares(inputs, behaviours, dist, faults, config):
         line = (f"{row['fault']}: {row['arrived']} of {row['drives']} arrive "
                 f"({100.0 * row['kept']:.1f} %)")
         if row["miss_distance"] is not None:
