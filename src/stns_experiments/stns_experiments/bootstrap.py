@@ -93,21 +93,25 @@ def spread(sample: float | None, draws: list[float | None], at: list[int]) -> di
             "at_or_below": {str(s): float(np.mean(vals <= s)) for s in at}}
 
 
+def _check_whole(name: str, value: Any, lowest: int) -> None:
+    """Refuse a value that is not an int >= ``lowest`` (bools included), naming it."""
+    if isinstance(value, bool) or not isinstance(value, int) or value < lowest:
+        raise ExperimentError(f"{name} must be a whole number >= {lowest}, got {value!r}")
+
+
 def bootstrap(folders: list[Path], resamples: int = 2000, seed: int = 0,
               any_code: bool = False, at: list[int] | None = None,
               size: int | None = None) -> dict[str, Any]:
     """Bootstrap figures of the runs in ``folders`` (see the module docstring); ``size``:
     sets per draw, without replacement (Exp. 1, 3; None: all, with replacement)."""
-    if isinstance(resamples, bool) or not isinstance(resamples, int) or resamples < 1:
-        raise ExperimentError(f"--resamples must be a whole number >= 1, got {resamples!r}")
-    if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
-        raise ExperimentError(f"--seed must be a whole number >= 0, got {seed!r}")
+    _check_whole("--resamples", resamples, 1)
+    _check_whole("--seed", seed, 0)
     at = [] if at is None else list(at)
     bad = [s for s in at if isinstance(s, bool) or not isinstance(s, int) or s < 0]
     if bad:
         raise ExperimentError(f"--at takes steps >= 0, got {bad[0]!r}")
-    if size is not None and (isinstance(size, bool) or not isinstance(size, int) or size < 1):
-        raise ExperimentError(f"--size must be a whole number >= 1, got {size!r}")
+    if size is not None:
+        _check_whole("--size", size, 1)
     c = collect(folders, any_code)
     p = c["params"]
     if size is not None and p["experiment"] not in ("exp1", "exp3"):
