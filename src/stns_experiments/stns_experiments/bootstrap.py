@@ -1,7 +1,8 @@
 """How much a run's step figures move with its sample of trial sets: a bootstrap over sets.
 
     python -m stns_experiments.bootstrap RUN ... [--resamples 2000] [--seed 0] [--any-code]
-                                         [--at STEP ...] [--size N] [--json FILE]
+                                         [--at STEP ...] [--blocks-at K ...] [--size N]
+                                         [--json FILE]
 
 The convergence step (Exp. 1, 3) and the Exp. 2 delay and blocks above the pre-fault band are
 read off a pooled curve, each as the last block outside a 10 % band, so a run of 10 or 20
@@ -9,13 +10,16 @@ trial sets gives one draw of a noisy figure. This command resamples the trial se
 runs (taken as ``pool`` takes them: each once, the same checks) with replacement, recomputes
 the figure on each resample with the definitions of metrics.py, and prints its quantiles
 (2.5, 25, 50, 75, 97.5 %; each a resampled value) beside the figure of the sample itself.
-Exp. 2 resamples the relearning, the from-scratch and the pre-training sets of each level
-independently (they are independent samples). ``--at`` adds the share of resamples whose
+Without ``--size``, Exp. 2 resamples the relearning, the from-scratch and the pre-training sets
+of each level independently. ``--at`` (Exp. 1, 3) adds the share of resamples whose
 convergence step is at or below each given step. Resamples whose figure is undefined (the
 curve never stays in the band) count as above every step and are reported as such.
-``--size N`` (Exp. 1, 3) draws N of the pooled sets, without replacement, instead of as many
-as there are with replacement: the spread of the figure a run of N sets would report, e.g. the
-paper's 20, from a pool of many more.
+``--size N`` draws N of the pooled sets, without replacement, instead of as many as there are
+with replacement: the spread of the figure a run of N sets would report, e.g. the paper's 20
+(Exp. 1) or 10 (Exp. 2), from a pool of many more. In Exp. 2 a draw is what such a run holds:
+N pre-trained learners, the relearning sets of those same learners (paired by root seed and
+set index) and N from-scratch sets. ``--blocks-at K ...`` (Exp. 2) adds the share of resamples
+with at most K blocks above the pre-fault band.
 """
 
 from __future__ import annotations
@@ -99,23 +103,60 @@ def _check_whole(name: str, value: Any, lowest: int) -> None:
         raise ExperimentError(f"{name} must be a whole number >= {lowest}, got {value!r}")
 
 
+def _whole_list(name: str, values: list[int] | None, what: str) -> list[int]:
+    """``values`` as a list, each an int >= 0 (bools refused), else an error naming it."""
+    values = [] if values is None else list(values)
+    bad = [v for v in values if isinstance(v, bool) or not isinstance(v, int) or v < 0]
+    if bad:
+        raise ExperimentError(f"{name} takes {what} >= 0, got {bad[0]!r}")
+    return values
+
+
+def _base_of(c: dict[str, Any], relearn: list[dict], level: str) -> list[int]:
+    """For each relearning set, the position in ``c['base_sets']`` of the pre-trained learner
+    it relearned from (same root seed, same set index), or an error naming the set."""
+    pos = {id(b): j for j, b in enumerate(c["base_sets"])}
+    base_at: dict[tuple, int] = {}
+    seed_of: dict[int, Any] = {}
+    for run in c["runs"]:
+        root = run["params"]["seed"]
+        for b in run["base_sets"]:
+            if id(b) in pos:
+                base_at.setdefault((root, b.get("index")), pos[id(b)])
+        seed_of.update({id(s): root for s in run["sets"]})
+    out = []
+    for s in relearn:
+        k = (seed_of[id(s)], s.get("index"))
+        if k[1] is None or k not in base_at:
+            raise ExperimentError(f"--size: relearning set {s['key']} of root seed {k[0]} has "
+                                  f"no pre-training set of its index ({k[1]!r}) at {level}")
+        out.append(base_at[k])
+    if len(set(out)) != len(c["base_sets"]):
+        raise ExperimentError(f"--size: {level} holds relearning sets for {len(set(out))} of "
+                              f"the {len(c['base_sets'])} pre-trained learners: a draw of "
+                              f"learners would miss some")
+    return out
+
+
 def bootstrap(folders: list[Path], resamples: int = 2000, seed: int = 0,
               any_code: bool = False, at: list[int] | None = None,
-              size: int | None = None) -> dict[str, Any]:
+              size: int | None = None, blocks_at: list[int] | None = None) -> dict[str, Any]:
     """Bootstrap figures of the runs in ``folders`` (see the module docstring); ``size``:
-    sets per draw, without replacement (Exp. 1, 3; None: all, with replacement)."""
+    sets per draw, without replacement (None: all, with replacement); ``blocks_at`` (Exp. 2):
+    block counts whose share at or below is reported."""
     _check_whole("--resamples", resamples, 1)
     _check_whole("--seed", seed, 0)
-    at = [] if at is None else list(at)
-    bad = [s for s in at if isinstance(s, bool) or not isinstance(s, int) or s < 0]
-    if bad:
-        raise ExperimentError(f"--at takes steps >= 0, got {bad[0]!r}")
+    at = _whole_list("--at", at, "steps")
+    blocks_at = _whole_list("--blocks-at", blocks_at, "block counts")
     if size is not None:
         _check_whole("--size", size, 1)
     c = collect(folders, any_code)
     p = c["params"]
-    if size is not None and p["experiment"] not in ("exp1", "exp3"):
-        raise ExperimentError(f"--size is for exp1 and exp3 runs, not {p['experiment']}")
+    if blocks_at and p["experiment"] in ("exp1", "exp3"):
+        raise ExperimentError(f"--blocks-at is for exp2 runs, not {p['experiment']}")
+    if at and p["experiment"] not in ("exp1", "exp3"):
+        raise ExperimentError(f"--at is for exp1 and exp3 runs, not {p['experiment']} "
+                              f"(there: --blocks-at)")
     rng = np.random.default_rng(seed)
     out: dict[str, Any] = {"experiment": p["experiment"], "resamples": resamples,
                            "seed": seed, "pooled_from": c["pooled_from"]}
@@ -136,25 +177,42 @@ def bootstrap(folders: list[Path], resamples: int = 2000, seed: int = 0,
                           for k in own}
         return out
     base_fin = _counts(c["base_sets"])[2] if c["base_sets"] else np.zeros((0, 2), np.int64)
-    out["trial_sets"] = len(c["base_sets"])
+    nb = len(base_fin)
+    out["trial_sets"] = nb
+    out["size"] = size
     out["levels"] = {}
+    if size is not None and size > nb:
+        raise ExperimentError(f"--size {size} is more than the {nb} pre-trained learners pooled")
     for name, rl, sc in c["levels"].values():
         if not rl:
             continue  # nothing relearned at this level: no figure to resample
         r, s = _counts(rl), (_counts(sc) if sc else None)
+        if size is not None:
+            rl_base = np.array(_base_of(c, rl, name))
+            if s is not None and size > len(sc):
+                raise ExperimentError(f"--size {size} is more than the {len(sc)} from-scratch "
+                                      f"sets pooled at {name}")
         draws = []
         for _ in range(resamples):
-            ir = rng.integers(len(rl), size=len(rl))
             rs = None
-            if s is not None:
-                i_s = rng.integers(len(sc), size=len(sc))
-                rs = tuple(x[i_s] for x in s)
-            ib = rng.integers(max(len(base_fin), 1), size=len(base_fin))
+            if size is None:  # each group resampled on its own, with replacement
+                ir = rng.integers(len(rl), size=len(rl))
+                ib = rng.integers(max(nb, 1), size=nb)
+                if s is not None:
+                    rs = tuple(x[rng.integers(len(sc), size=len(sc))] for x in s)
+            else:  # a run of `size` learners: their pre-training and their relearning
+                ib = rng.choice(nb, size=size, replace=False)
+                ir = np.flatnonzero(np.isin(rl_base, ib))
+                if s is not None:
+                    rs = tuple(x[rng.choice(len(sc), size=size, replace=False)] for x in s)
             draws.append(fault_figures(tuple(x[ir] for x in r), rs, base_fin[ib], p))
         own = fault_figures(r, s, base_fin, p)
-        out["levels"][name] = {"relearn_sets": len(rl), "scratch_sets": len(sc),
-                               **{k: spread(own[k], [d[k] for d in draws], [])
-                                  for k in own}}
+        out["levels"][name] = {
+            "relearn_sets": len(rl), "scratch_sets": len(sc),
+            "delay_steps": spread(own["delay_steps"], [d["delay_steps"] for d in draws], []),
+            "blocks_worse_than_prefault": spread(
+                own["blocks_worse_than_prefault"],
+                [d["blocks_worse_than_prefault"] for d in draws], blocks_at)}
     return out
 
 
@@ -194,13 +252,27 @@ def describe(s: dict) -> str:
         lines.append(f"| behaviours to goal, final window | {f['sample']:.2f} | {q} | "
                      f"{100 * (f['undefined'] or 0.0):.1f} % |" + " |" * len(at))
     else:
-        lines.append(f"{s['trial_sets']} pre-training sets; per level the relearning and "
-                     f"from-scratch sets resampled independently.")
+        if s.get("size") is None:
+            lines.append(f"{s['trial_sets']} pre-training sets; per level the relearning and "
+                         f"from-scratch sets resampled independently.")
+        else:
+            lines.append(f"{s['trial_sets']} pre-trained learners; each draw {s['size']} of "
+                         f"them without replacement, with their own relearning sets, and "
+                         f"{s['size']} from-scratch sets (the figure a run of {s['size']} "
+                         f"sets would report).")
         lines.append("")
-        lines.append("| level | figure | sample | resampled quantiles | undefined |")
-        lines.append("|---|---|---|---|---|")
+        first = next(iter(s["levels"].values()), None)
+        at = list(first["blocks_worse_than_prefault"]["at_or_below"]) if first else []
+        lines.append("| level | figure | sample | resampled quantiles | undefined |"
+                     + "".join(f" at most {a} blocks |" for a in at))
+        lines.append("|---|---|---|---|---|" + "---|" * len(at))
         for name, e in s["levels"].items():
-            lines.append(_row(f"{name} | delay against scratch, steps", e["delay_steps"]))
+            if e["scratch_sets"]:
+                lines.append(_row(f"{name} | delay against scratch, steps", e["delay_steps"])
+                             + " |" * len(at))
+            else:  # not "never": there is no scratch curve to be late against
+                lines.append(f"| {name} | delay against scratch, steps | - | no from-scratch "
+                             f"sets | - |" + " |" * len(at))
             lines.append(_row(f"{name} | blocks above the pre-fault band",
                               e["blocks_worse_than_prefault"]))
     return "\n".join(lines) + "\n"
@@ -218,13 +290,16 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--any-code", action="store_true",
                     help="pool runs made on different library code (named in the output)")
     ap.add_argument("--size", type=int, default=None,
-                    help="Exp. 1, 3: draw this many of the pooled sets without replacement "
-                         "(the spread a run of that many sets would show)")
+                    help="draw this many of the pooled sets without replacement (the spread "
+                         "a run of that many sets would show; Exp. 2: that many learners)")
+    ap.add_argument("--blocks-at", type=int, nargs="*", default=[],
+                    help="Exp. 2: also the share of resamples with at most these blocks "
+                         "above the pre-fault band")
     ap.add_argument("--json", type=Path, help="also write the figures to this file")
     args = ap.parse_args(argv)
     try:
         s = bootstrap(args.runs, args.resamples, args.seed, args.any_code, args.at,
-                      args.size)
+                      args.size, args.blocks_at)
     except ExperimentError as e:
         sys.stderr.write(f"error: {e}\n")
         return 2

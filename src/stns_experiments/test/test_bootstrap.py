@@ -117,8 +117,64 @@ def test_exp2_without_scratch_sets_still_gives_the_blocks_above_the_band(tmp_pat
     # above 1.1 x the pre-fault 2.0: 6.0, 2.5 and 2.3; no scratch curve, so no delay
     assert e["scratch_sets"] == 0 and e["blocks_worse_than_prefault"]["sample"] == 3
     assert e["delay_steps"]["sample"] is None and e["delay_steps"]["undefined"] == 1.0
-    with pytest.raises(ExperimentError, match="--size is for exp1 and exp3 runs, not exp2"):
-        BS.bootstrap([run], resamples=20, size=1)
+    assert "| 10deg | delay against scratch, steps | - | no from-scratch sets | - |" in \
+        BS.describe(BS.bootstrap([run], resamples=20))
+    with pytest.raises(ExperimentError, match="--at is for exp1 and exp3 runs, not exp2"):
+        BS.bootstrap([run], resamples=20, at=[100])
+
+
+EXP2 = dict(PARAMS, experiment="exp2-sensor", block_size=250, steps=1000, final_window=500,
+            pretrain_steps=1000, fault="goal_sensor_rotation_deg", scratch=False)
+
+
+def _learner(tmp_path, name, seed, base_level, relearn_blocks, n=1):
+    """A run of ``n`` pre-trained learners, each at ``base_level`` behaviours per arrival
+    before the fault, each relearning a 10-degree fault with ``relearn_blocks`` behaviours
+    per 10 arrivals."""
+    base = [synthetic_set(f"set{i:02d}", [50, 10 * base_level], [10, 10], index=i,
+                          final_window_blocks=1) for i in range(n)]
+    sets = [synthetic_set(f"10deg-relearn-{i:02d}", relearn_blocks, [10] * 4, index=i,
+                          mode="relearn", level=10.0) for i in range(n)]
+    return synthetic_run(tmp_path / name, seed, sets, params=EXP2, base_sets=base)
+
+
+def test_exp2_size_draws_learners_with_their_own_relearning(tmp_path):
+    """Learner A (root seed 0) is at 2 before the fault and relearns 6, 2, 2, 2; learner B
+    (root seed 1, the same set index) is at 4 and relearns 6, 4, 4, 4: each is one block above
+    its own band. A draw of one learner with its own relearning gives 1 every time; A's
+    pre-fault level (band 2.2) with B's relearning would give 4."""
+    runs = [_learner(tmp_path, "a", 0, 2, [60, 20, 20, 20]),
+            _learner(tmp_path, "b", 1, 4, [60, 40, 40, 40])]
+    one = BS.bootstrap(runs, resamples=400, seed=2, size=1, blocks_at=[0, 1])
+    e = one["levels"]["10deg"]["blocks_worse_than_prefault"]
+    assert one["size"] == 1 and one["trial_sets"] == 2
+    assert set(e["quantiles"].values()) == {1}
+    assert e["at_or_below"] == {"0": 0.0, "1": 1.0}
+    text = BS.describe(one)
+    assert "each draw 1 of them without replacement, with their own relearning sets" in text
+    assert "| at most 0 blocks | at most 1 blocks |" in text
+    assert "| 10deg | blocks above the pre-fault band | 1 | 1 / 1 / 1 / 1 / 1 | 0.0 % | 0.0 % " \
+           "| 100.0 % |" in text
+    # resampled with replacement, the groups are drawn on their own and the mismatches show
+    free = BS.bootstrap(runs, resamples=400, seed=2, blocks_at=[0])
+    q = free["levels"]["10deg"]["blocks_worse_than_prefault"]["quantiles"]
+    assert q["2.5"] == 1 and q["97.5"] == 4
+
+
+def test_exp2_size_refuses_a_draw_it_cannot_make(tmp_path):
+    run = _learner(tmp_path, "a", 0, 2, [60, 20, 20, 20], n=2)
+    with pytest.raises(ExperimentError, match="--size 3 is more than the 2 pre-trained "
+                                              "learners pooled"):
+        BS.bootstrap([run], resamples=10, size=3)
+    (run / "sets" / "10deg-relearn-01.json").unlink()
+    with pytest.raises(ExperimentError, match="10deg holds relearning sets for 1 of the 2 "
+                                              "pre-trained learners"):
+        BS.bootstrap([run], resamples=10, size=1)
+    exp1 = _run(tmp_path, "e1", 0, [FAST])
+    with pytest.raises(ExperimentError, match="--blocks-at is for exp2 runs, not exp1"):
+        BS.bootstrap([exp1], resamples=10, blocks_at=[3])
+    with pytest.raises(ExperimentError, match="--blocks-at takes block counts >= 0, got -1"):
+        BS.bootstrap([run], resamples=10, blocks_at=[-1])
 
 
 @pytest.mark.parametrize("resamples", [0, -3, True, 2.5])
