@@ -196,15 +196,18 @@ def bootstrap(folders: list[Path], resamples: int = 2000, seed: int = 0,
         for _ in range(resamples):
             rs = None
             if size is None:  # each group resampled on its own, with replacement
+                # (in this order of draws, so that earlier --seed figures repeat)
                 ir = rng.integers(len(rl), size=len(rl))
-                ib = rng.integers(max(nb, 1), size=nb)
                 if s is not None:
-                    rs = tuple(x[rng.integers(len(sc), size=len(sc))] for x in s)
+                    i_s = rng.integers(len(sc), size=len(sc))
+                    rs = tuple(x[i_s] for x in s)
+                ib = rng.integers(max(nb, 1), size=nb)
             else:  # a run of `size` learners: their pre-training and their relearning
                 ib = rng.choice(nb, size=size, replace=False)
                 ir = np.flatnonzero(np.isin(rl_base, ib))
                 if s is not None:
-                    rs = tuple(x[rng.choice(len(sc), size=size, replace=False)] for x in s)
+                    i_s = rng.choice(len(sc), size=size, replace=False)  # one draw for all
+                    rs = tuple(x[i_s] for x in s)
             draws.append(fault_figures(tuple(x[ir] for x in r), rs, base_fin[ib], p))
         own = fault_figures(r, s, base_fin, p)
         out["levels"][name] = {

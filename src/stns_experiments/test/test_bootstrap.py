@@ -161,6 +161,27 @@ def test_exp2_size_draws_learners_with_their_own_relearning(tmp_path):
     assert q["2.5"] == 1 and q["97.5"] == 4
 
 
+@pytest.mark.parametrize("size", [None, 1])
+def test_exp2_draws_keep_each_scratch_set_whole(tmp_path, size):
+    """Two from-scratch sets: A (2.1 per arrival at the end, there from block 1: delay +250
+    against the relearning curve 6, 2.5, 2.3, 2.1) and B (20, 15, 5, 5: delay -250). A draw
+    that took one set's behaviours with another's arrivals or final counts would give other
+    delays."""
+    exp2 = dict(EXP2, scratch=True)
+    base = [synthetic_set("set00", [50, 20], [10, 10], index=0, final_window_blocks=1)]
+    sets = [synthetic_set("10deg-relearn-00", [60, 25, 23, 21], [10] * 4, index=0,
+                          mode="relearn", level=10.0),
+            synthetic_set("10deg-scratch-00", [80, 21, 21, 21], [10] * 4, index=0,
+                          mode="scratch", level=10.0),
+            synthetic_set("10deg-scratch-01", [400, 300, 100, 100], [20] * 4, index=1,
+                          mode="scratch", level=10.0)]
+    run = synthetic_run(tmp_path / "a", 0, sets, params=exp2, base_sets=base)
+    q = BS.bootstrap([run], resamples=300, seed=0, size=size)["levels"]["10deg"][
+        "delay_steps"]["quantiles"]
+    assert set(q.values()) <= {-250.0, 0.0, 250.0}  # 0: A and B pooled (with replacement)
+    assert q["2.5"] == -250 and q["97.5"] == 250
+
+
 def test_exp2_size_refuses_a_draw_it_cannot_make(tmp_path):
     run = _learner(tmp_path, "a", 0, 2, [60, 20, 20, 20], n=2)
     with pytest.raises(ExperimentError, match="--size 3 is more than the 2 pre-trained "
