@@ -97,16 +97,21 @@ def spread(sample: float | None, draws: list[float | None], at: list[int]) -> di
             "at_or_below": {str(s): float(np.mean(vals <= s)) for s in at}}
 
 
+def _is_whole(value: Any, lowest: int) -> bool:
+    """Is ``value`` an int >= ``lowest``? (A bool is not, though Python counts it an int.)"""
+    return not isinstance(value, bool) and isinstance(value, int) and value >= lowest
+
+
 def _check_whole(name: str, value: Any, lowest: int) -> None:
     """Refuse a value that is not an int >= ``lowest`` (bools included), naming it."""
-    if isinstance(value, bool) or not isinstance(value, int) or value < lowest:
+    if not _is_whole(value, lowest):
         raise ExperimentError(f"{name} must be a whole number >= {lowest}, got {value!r}")
 
 
 def _whole_list(name: str, values: list[int] | None, what: str) -> list[int]:
     """``values`` as a list, each an int >= 0 (bools refused), else an error naming it."""
     values = [] if values is None else list(values)
-    bad = [v for v in values if isinstance(v, bool) or not isinstance(v, int) or v < 0]
+    bad = [v for v in values if not _is_whole(v, 0)]
     if bad:
         raise ExperimentError(f"{name} takes {what} >= 0, got {bad[0]!r}")
     return values
