@@ -264,8 +264,20 @@ def library_changes(commits: list[str], cwd: Path | None = None) -> list[str] | 
     return sorted(set(changed))
 
 
+def set_code_versions(summary: dict) -> list[dict]:
+    """The code versions a run's trial sets may have run on: that of each of its sessions
+    (``sessions``: a --resume adds one) but those that ran no set; a session whose code is
+    not recorded gives {}. A run written before sessions were kept: its ``code_version``."""
+    sessions = summary.get("sessions")
+    if not isinstance(sessions, list) or not sessions:
+        return [summary.get("code_version") or {}]
+    versions = [s.get("code_version") if isinstance(s, dict) else None
+                for s in sessions if not (isinstance(s, dict) and s.get("sets_run") == 0)]
+    return [v if isinstance(v, dict) else {} for v in versions]
+
+
 def code_note(runs: list[dict], any_code: bool) -> str:
-    versions = [r["summary"].get("code_version") or {} for r in runs]
+    versions = [v for r in runs for v in set_code_versions(r["summary"])]
     commits = [v.get("commit") for v in versions]
     dirty = sorted({f for v in versions for f in v.get("uncommitted", [])
                     if f.endswith(".py") and f.startswith(LIBRARY_DIRS)
@@ -311,8 +323,8 @@ def changed_during_note(runs: list[dict]) -> str:
     the start was read hold no such list."""
     parts = []
     for r in runs:
-        v = r["summary"].get("code_version") or {}
-        files = [f for f in v.get("changed_during_run") or [] if not f.endswith(REPORT_ONLY)]
+        files = sorted({f for v in set_code_versions(r["summary"])
+                        for f in v.get("changed_during_run") or [] if not f.endswith(REPORT_ONLY)})
         if files:
             parts.append(f"{r['folder']}: {', '.join(files)}")
     return "; ".join(parts)
@@ -321,16 +333,16 @@ def changed_during_note(runs: list[dict]) -> str:
 def outside_note(runs: list[dict]) -> str:
     """The libraries the runs imported from outside their workspace (``code_version``'s
     "outside"), one entry per run and library, or ''."""
-    parts = []
+    parts: list[str] = []
     for r in runs:
-        v = r["summary"].get("code_version") or {}
-        for name, o in sorted((v.get("outside") or {}).items()):
-            o = o if isinstance(o, dict) else {}
-            what = f"commit {o['commit']}" if o.get("commit") else "no git commit"
-            if o.get("uncommitted"):
-                what += f", uncommitted {', '.join(map(str, o['uncommitted']))}"
-            parts.append(f"{r['folder']}: {name} from {o.get('path', '?')} ({what})")
-    return "; ".join(parts)
+        for v in set_code_versions(r["summary"]):
+            for name, o in sorted((v.get("outside") or {}).items()):
+                o = o if isinstance(o, dict) else {}
+                what = f"commit {o['commit']}" if o.get("commit") else "no git commit"
+                if o.get("uncommitted"):
+                    what += f", uncommitted {', '.join(map(str, o['uncommitted']))}"
+                parts.append(f"{r['folder']}: {name} from {o.get('path', '?')} ({what})")
+    return "; ".join(dict.fromkeys(parts))
 
 
 def window_levels(results: list[dict], params: dict, steps: int) -> dict[str, float]:

@@ -88,6 +88,7 @@ class Run:
         self.command, self.progress = command, progress
         self.t0 = time.monotonic()
         self.started = math.floor(time.time())  # result files written since are this run's
+        self.sets_loaded = self.sets_run = 0
         self.errors: dict[str, str] = {}
         self.interrupted = False
         # the code as the run starts; finish() hashes the same directories again
@@ -101,6 +102,9 @@ class Run:
                 f"--out {str(self.out)!r} is inside the run folder {str(holder)!r}, whose files "
                 "are that run's record; choose another --out (nothing was changed)")
         self._check_earlier_run()
+        # the invocations that made the folder before this one (--resume), each with its
+        # command, code and time, so that a resume keeps what the earlier ones recorded
+        self.earlier_sessions = earlier_sessions(self.out) if self.resume else []
         try:
             self.out.mkdir(parents=True, exist_ok=True)
         except OSError as e:
@@ -158,6 +162,8 @@ class Run:
         res, err, intr = run_tasks(dispatch, tasks, self.jobs, label, self.progress)
         if intr:
             res.update(self._finished_during_stop(tasks, res, err))
+        self.sets_loaded += len(done)
+        self.sets_run += len(res)
         res = {**done, **res}
         self.errors.update(err)
         self.interrupted = self.interrupted or intr
@@ -187,9 +193,30 @@ class Run:
         seeds = set_seeds(self.params["seed"], 1, STREAM_RANDOM)[0]
         return [self.task("random", "random", 0, n, seeds)]
 
+    def session(self, finished: bool = False) -> dict[str, Any]:
+        """This invocation as ``sessions`` records it: at its start (config.json) the sets it
+        will load or run and its time are not known yet (None)."""
+        s: dict[str, Any] = {"command": self.command,
+                             "started_utc": time.strftime("%Y-%m-%dT%H:%M:%SZ",
+                                                          time.gmtime(self.started)),
+                             "code_version": self.code, "sets_loaded": None, "sets_run": None,
+                             "wall_seconds": None}
+        if finished:
+            s.update(sets_loaded=self.sets_loaded, sets_run=self.sets_run,
+                     wall_seconds=time.monotonic() - self.t0,
+                     code_version={**self.code, "changed_during_run": changed_files(
+                         self.library, library_hashes(self.packages))})
+        return s
+
     def finish(self, summary: dict, figures: list[str]) -> dict:
         p = self.params
-        wall = time.monotonic() - self.t0
+        now = self.session(finished=True)
+        sessions = [*self.earlier_sessions, now]
+        # the time of every session that made the run (one that stopped before writing its
+        # summary is not known, and left out)
+        wall = sum(s["wall_seconds"] for s in sessions
+                   if isinstance(s.get("wall_seconds"), (int, float))
+                   and not isinstance(s.get("wall_seconds"), bool))
         base = {"experiment": p["experiment"], "seed": p["seed"], "trial_sets": p["trial_sets"],
                 "steps": p["steps"], "block_size": p["block_size"]}
         summary = {**base, **summary}
@@ -206,8 +233,8 @@ class Run:
                 f"level (last {p['final_window']} steps); value = steps before that block. "
                 f"convergence_step_trailing: first block end from which the trailing "
                 f"{p['trailing_window']}-step window stays within the same band."),
-            "code_version": {**self.code, "changed_during_run": changed_files(
-                self.library, library_hashes(self.packages))},
+            "code_version": now["code_version"],
+            "sessions": sessions,
             "interrupted": self.interrupted,
             "errors": self.errors,
             "figures": figures,
@@ -215,6 +242,37 @@ class Run:
         })
         write_json(self.out / "summary.json", summary)
         return summary
+
+
+def earlier_sessions(out: Path) -> list[dict[str, Any]]:
+    """The sessions of the run in ``out`` that a --resume continues: every one that started
+    (config.json), with the sets, time and code of those that finished (summary.json). A run
+    recorded before sessions were kept counts as one session, its command from config.json
+    and its code and time from summary.json (None where it wrote none)."""
+    cfg_path, sum_path = out / "config.json", out / "summary.json"
+    cfg = read_json(cfg_path, "--resume: the earlier run's config") if cfg_path.is_file() else {}
+    summ = (read_json(sum_path, "--resume: the earlier run's summary (move it away to resume "
+                                "without its record of the earlier sessions)")
+            if sum_path.is_file() else {})
+    for path, d in ((cfg_path, cfg), (sum_path, summ)):
+        if not isinstance(d, dict):
+            raise ExperimentError(f"--resume: {str(path)!r} holds no JSON object")
+        if not isinstance(d.get("sessions", []), list) or not all(
+                isinstance(s, dict) for s in d.get("sessions", [])):
+            raise ExperimentError(f"--resume: {str(path)!r}: 'sessions' is not a list of "
+                                  f"objects: {str(d.get('sessions'))[:60]}")
+    started = cfg.get("sessions")
+    if started is None:
+        if not cfg and not summ:
+            return []
+        return [{"command": summ.get("command", cfg.get("command")),
+                 "started_utc": None, "code_version": summ.get("code_version"),
+                 "sets_loaded": None, "sets_run": None,
+                 "wall_seconds": summ.get("wall_seconds")}]
+    # the summary's sessions are the config's first ones, complete where the last session to
+    # write a summary finished; a later one that stopped is in the config alone
+    done = summ.get("sessions", [])
+    return [done[i] if i < len(done) else s for i, s in enumerate(started)]
 
 
 def library_packages() -> dict[str, Path]:
@@ -263,7 +321,8 @@ def _write_config(run: Run, seeds: dict[str, Any]) -> None:
     agent_cfg.pop("seed", None)
     write_json(run.out / "config.json", {"params": run.params, "seeds": seeds,
                                          "command": run.command, "world_config": world_cfg,
-                                         "agent_config": agent_cfg})
+                                         "agent_config": agent_cfg,
+                                         "sessions": [*run.earlier_sessions, run.session()]})
 
 
 def _sorted(results: dict[str, dict], prefix: str) -> list[dict]:

@@ -212,6 +212,36 @@ def test_refuses_other_library_code_unless_asked(tmp_path, monkeypatch):
     assert "pool --any-code " in P.describe(s)  # the printed command repeats the run
 
 
+def test_a_resumed_run_is_checked_on_the_code_of_each_session_that_ran_sets(tmp_path,
+                                                                             monkeypatch):
+    """A run resumed on other library code holds sets of two codes, whatever its latest
+    summary's code_version says; a session that only loaded sets (figures) is left out."""
+    a = _write_run(tmp_path / "a", 0, [_set("set00", [4] * 4, [2] * 4)], commit="aaaaaaa")
+    summ = json.loads((a / "summary.json").read_text())
+    seen = []
+
+    def changes(commits, cwd=None):
+        seen.append(list(commits))
+        return ["src/stns_core/stns_core/agent.py"] if len(set(commits)) > 1 else []
+
+    monkeypatch.setattr(P, "library_changes", changes)
+    run_sets = {"commit": "bbbbbbb", "uncommitted": []}
+    summ["sessions"] = [{"code_version": {"commit": "bbbbbbb"}, "sets_run": 1},
+                        {"code_version": summ["code_version"], "sets_run": 0}]
+    (a / "summary.json").write_text(json.dumps(summ))
+    assert "commits bbbbbbb, the same library code" in P.pool([a])["pooled_from"]["code"]
+    summ["sessions"][1]["sets_run"] = 1
+    summ["sessions"][0]["code_version"] = run_sets
+    (a / "summary.json").write_text(json.dumps(summ))
+    with pytest.raises(ExperimentError, match=r"commits bbbbbbb, aaaaaaa; changed: .*agent"):
+        P.pool([a])
+    assert seen[-1] == ["bbbbbbb", "aaaaaaa"]
+    # a session that stopped before its summary (sets_run unknown) counts; its code unknown
+    summ["sessions"][0] = {"code_version": None, "sets_run": None}
+    (a / "summary.json").write_text(json.dumps(summ))
+    assert P.pool([a])["pooled_from"]["code"].startswith("code: a run has no recorded commit")
+
+
 def test_git_that_cannot_tell_is_not_taken_for_the_same_code(tmp_path):
     assert P.library_changes(["0000000000", "1111111111"], cwd=tmp_path) is None
 

@@ -140,6 +140,72 @@ def test_resume_reuses_finished_trial_sets(tmp_path):
     assert s2["behaviours_to_goal_by_block"] == s1["behaviours_to_goal_by_block"]
 
 
+def _json(path):
+    return json.loads(path.read_text())
+
+
+def test_resume_keeps_the_earlier_sessions_command_code_and_time(tmp_path):
+    """A --resume (here: only the figures drawn) used to rewrite the summary's command, code
+    version and wall time as its own, so the run's record lost the commit that made its sets.
+    Every session is kept; the wall time is theirs summed."""
+    out, s1 = _run(tmp_path, ["exp1", "--steps", "120", "--no-figures"] + SMALL)
+    assert [x["sets_run"] for x in s1["sessions"]] == [2]  # set00 and the random policy
+    assert s1["sessions"][0]["code_version"] == s1["code_version"]
+    argv = ["exp1", "--steps", "120", "--resume", "--out", str(out)] + SMALL
+    assert main(argv) == 0
+    s2 = _json(out / "summary.json")
+    first, second = s2["sessions"]
+    assert first == s1["sessions"][0]
+    assert (second["sets_loaded"], second["sets_run"]) == (2, 0)
+    assert second["command"] == s2["command"] and "--resume" in second["command"]
+    assert s2["wall_seconds"] == pytest.approx(first["wall_seconds"] + second["wall_seconds"])
+    assert s2["figures"]
+    assert [x["command"] for x in _json(out / "config.json")["sessions"]] == [
+        first["command"], second["command"]]
+
+
+def test_resume_keeps_a_session_that_stopped_and_an_older_runs_record(tmp_path):
+    out, s1 = _run(tmp_path, ["exp1", "--steps", "120", "--no-figures"] + SMALL)
+    # a session that was killed after writing config.json, before its summary
+    cfg = _json(out / "config.json")
+    killed = dict(cfg["sessions"][0], command="stns-experiment exp1 ... (killed)",
+                  started_utc="2026-12-07T00:00:00Z")
+    cfg["sessions"].append(killed)
+    (out / "config.json").write_text(json.dumps(cfg))
+    argv = ["exp1", "--steps", "120", "--no-figures", "--resume", "--out", str(out)] + SMALL
+    assert main(argv) == 0
+    sessions = _json(out / "summary.json")["sessions"]
+    assert sessions[0] == s1["sessions"][0] and sessions[1] == killed and len(sessions) == 3
+    # a run recorded before sessions were kept: one session from its command, code and time
+    for name in ("config.json", "summary.json"):
+        d = _json(out / name)
+        d.pop("sessions")
+        d["command"] = "stns-experiment exp1 (an older run)"
+        (out / name).write_text(json.dumps(d))
+    old = _json(out / "summary.json")
+    assert main(argv) == 0
+    first = _json(out / "summary.json")["sessions"][0]
+    assert first["command"] == "stns-experiment exp1 (an older run)"
+    assert (first["code_version"], first["wall_seconds"]) == (old["code_version"],
+                                                              old["wall_seconds"])
+
+
+@pytest.mark.parametrize("content, message", [
+    ("{cut", "the earlier run's summary (move it away to resume"),
+    ('{"sessions": 3}', "'sessions' is not a list of objects: 3"),
+])
+def test_resume_names_a_damaged_summary_and_changes_nothing(tmp_path, capsys, content,
+                                                            message):
+    out, _ = _run(tmp_path, ["exp1", "--steps", "120", "--no-figures"] + SMALL)
+    (out / "summary.json").write_text(content)
+    files = {p: p.read_bytes() for p in out.rglob("*") if p.is_file()}
+    argv = ["exp1", "--steps", "120", "--no-figures", "--resume", "--out", str(out)] + SMALL
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert message in err and "summary.json" in err, err
+    assert {p: p.read_bytes() for p in out.rglob("*") if p.is_file()} == files
+
+
 def test_an_earlier_run_is_not_written_over(tmp_path, capsys):
     """Without --resume, or with other parameters, a run into an earlier run's folder is
     refused before anything there changes; --resume may add trial sets and figures."""
