@@ -61,6 +61,23 @@ def _palette(n: int) -> list:
     return [base[i % len(base)] for i in range(n)]
 
 
+def situation_labels(grid: np.ndarray, situations: Sequence[dict]) -> dict[int, str]:
+    """The legend of a situation map, by id (the margin, 0, left out): kind, condition
+    behaviour and a T-situation's parent. A situation that wins no cell of the map (bitten
+    away there, or behind others) says so, since its colour is nowhere to be seen."""
+    on_map = {int(v) for v in np.unique(grid)}
+    by_id = {s["id"]: s for s in situations}
+    labels = {}
+    for sid in sorted((on_map | set(by_id)) - {0}):
+        s = by_id.get(sid, {})
+        b = s.get("behaviour")
+        lab = f"{sid}: {s.get('kind', '?')} {BEHAVIOUR_GLYPH.get(b, '?')} {BEHAVIOUR_NAMES.get(b, '')}"
+        if s.get("kind") == "T" and s.get("parent") is not None:
+            lab += f" -> {s['parent']}"
+        labels[sid] = lab if sid in on_map else lab + " (no cell of this map)"
+    return labels
+
+
 def situation_map(path: Path, classify: Callable[[np.ndarray], int], situations: Sequence[dict],
                   title: str, extent: float = 115.0, resolution: int = 161,
                   goal_radius: float = 5.0, max_distance: float | None = 112.0) -> Path:
@@ -74,7 +91,8 @@ def situation_map(path: Path, classify: Callable[[np.ndarray], int], situations:
     for i, y in enumerate(xs):
         for j, x in enumerate(xs):
             grid[i, j] = classify(np.array([x, y]))
-    ids = sorted(({int(v) for v in np.unique(grid)} | {s["id"] for s in situations}) - {0})
+    labels = situation_labels(grid, situations)
+    ids = list(labels)
     colors = [(1, 1, 1)] + _palette(len(ids))
     lut = {0: 0} | {sid: k + 1 for k, sid in enumerate(ids)}
     img = np.vectorize(lambda v: lut.get(int(v), 0))(grid)
@@ -87,12 +105,8 @@ def situation_map(path: Path, classify: Callable[[np.ndarray], int], situations:
     by_id = {s["id"]: s for s in situations}
     handles = []
     for sid in ids:
-        s = by_id.get(sid, {})
-        b = s.get("behaviour")
-        lab = f"{sid}: {s.get('kind', '?')} {BEHAVIOUR_GLYPH.get(b, '?')} {BEHAVIOUR_NAMES.get(b, '')}"
-        if s.get("kind") == "T" and s.get("parent") is not None:
-            lab += f" -> {s['parent']}"
-        handles.append(Patch(color=colors[lut[sid]], label=lab))
+        b = by_id.get(sid, {}).get("behaviour")
+        handles.append(Patch(color=colors[lut[sid]], label=labels[sid]))
         pts = np.argwhere(grid == sid)
         if len(pts):
             cy, cx = pts.mean(axis=0)
