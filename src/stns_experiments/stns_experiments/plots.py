@@ -74,7 +74,7 @@ def situation_labels(grid: np.ndarray, situations: Sequence[dict]) -> dict[int, 
         lab = f"{sid}: {s.get('kind', '?')} {BEHAVIOUR_GLYPH.get(b, '?')} {BEHAVIOUR_NAMES.get(b, '')}"
         if s.get("kind") == "T" and s.get("parent") is not None:
             lab += f" -> {s['parent']}"
-        labels[sid] = lab if sid in on_map else lab + " (no cell of this map)"
+        labels[sid] = lab if sid in on_map else lab + " (nowhere on this map)"
     return labels
 
 

@@ -13,7 +13,7 @@ SITUATIONS = [{"id": 1, "kind": "R", "behaviour": 0},
 def test_a_situation_without_a_cell_is_named_so_in_the_legend():
     labels = plots.situation_labels(np.array([[0, 1], [1, 1]]), SITUATIONS)
     assert labels == {1: "1: R \u2191 forward",
-                      2: "2: T \u21bb clockwise -> 1 (no cell of this map)"}
+                      2: "2: T \u21bb clockwise -> 1 (nowhere on this map)"}
 
 
 def test_the_map_of_a_learner_with_two_situations_is_drawn(tmp_path):
