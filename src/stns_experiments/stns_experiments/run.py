@@ -101,10 +101,10 @@ class Run:
             raise ExperimentError(
                 f"--out {str(self.out)!r} is inside the run folder {str(holder)!r}, whose files "
                 "are that run's record; choose another --out (nothing was changed)")
-        self._check_earlier_run()
+        earlier = self._check_earlier_run()
         # the invocations that made the folder before this one (--resume), each with its
         # command, code and time, so that a resume keeps what the earlier ones recorded
-        self.earlier_sessions = earlier_sessions(self.out) if self.resume else []
+        self.earlier_sessions = earlier_sessions(self.out, earlier) if self.resume else []
         try:
             self.out.mkdir(parents=True, exist_ok=True)
         except OSError as e:
@@ -115,21 +115,21 @@ class Run:
     # do not depend on how many sets there are); fewer are refused
     RESUMABLE = ("figures", "trial_sets")
 
-    def _check_earlier_run(self) -> None:
+    def _check_earlier_run(self) -> dict:
         """An earlier run's folder is continued with --resume and the same parameters, never
         written over: a new run there would replace some of its trial sets and leave the rest
-        beside the new ones."""
+        beside the new ones. Returns the earlier config.json ({} when there is none)."""
         cfg = self.out / "config.json"
         sets = sorted((self.out / "sets").glob("*.json")) if (self.out / "sets").is_dir() else []
         if not cfg.is_file() and not sets and not (self.out / "summary.json").is_file():
-            return
+            return {}
         if not self.resume:
             raise ExperimentError(
                 f"--out {str(self.out)!r} holds an earlier run ({len(sets)} result files in sets/"
                 f"{', config.json' if cfg.is_file() else ''}); add --resume to continue it with "
                 "the same parameters, or choose another --out (nothing was changed)")
         if not cfg.is_file():
-            return
+            return {}
         earlier = read_json(cfg, "--resume: the earlier run's config")
         old = earlier.get("params") if isinstance(earlier, dict) else None
         if not isinstance(old, dict):
@@ -149,6 +149,7 @@ class Run:
             raise ExperimentError(
                 f"--resume: the run in {str(self.out)!r} was made with other parameters: {shown}; "
                 "resume it with the same ones, or choose another --out")
+        return earlier
 
     def tasks(self, tasks: list[dict], label: str) -> dict[str, dict]:
         if self.interrupted:
@@ -244,13 +245,13 @@ class Run:
         return summary
 
 
-def earlier_sessions(out: Path) -> list[dict[str, Any]]:
+def earlier_sessions(out: Path, cfg: dict) -> list[dict[str, Any]]:
     """The sessions of the run in ``out`` that a --resume continues: every one that started
-    (config.json), with the sets, time and code of those that finished (summary.json). A run
+    (``cfg``, its config.json as read by the --resume check), with the sets, time and code
+    of those that finished (summary.json). A run
     recorded before sessions were kept counts as one session, its command from config.json
     and its code and time from summary.json (None where it wrote none)."""
     cfg_path, sum_path = out / "config.json", out / "summary.json"
-    cfg = read_json(cfg_path, "--resume: the earlier run's config") if cfg_path.is_file() else {}
     summ = (read_json(sum_path, "--resume: the earlier run's summary (move it away to resume "
                                 "without its record of the earlier sessions)")
             if sum_path.is_file() else {})
