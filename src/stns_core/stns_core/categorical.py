@@ -305,6 +305,10 @@ class Learner:
         self._validity()
         if h.total % cfg.adjust_interval == 0:
             self._periodic()
+            if cfg.validity_check == "also_after_periodic":
+                # re-ordering and operation 5 relabel the history: without a second check,
+                # situations they make inappropriate stay until the next step's check
+                self._validity()
         if cfg.boundary_refit == "every_step":
             self._refit(only_dirty=True)
 

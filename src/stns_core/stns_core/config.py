@@ -35,6 +35,7 @@ MISS_STOPS = ("never", "margin", "all")
 EXPLORE_UNTRIED_STOPS = ("random_stop", "reward")
 PENDING_R_TRIES = ("never", "nearest_success", "planned_nearest_success")
 PENDING_T_TRIES = ("never", "planned_nearest_success")
+VALIDITY_CHECKS = ("before_periodic", "also_after_periodic")
 
 _PRESETS: dict[str, dict[str, Any]] = {
     # Paper section 7.1 (Exp. 1 and, from a saved learner, Exp. 2).
@@ -94,6 +95,7 @@ class StnsConfig:
     useless: str = "negative"
     no_plan: str = "explore"
     relabel: str = "after_modification"
+    validity_check: str = "before_periodic"
     iprl_memo: bool = True
     cov_reg: float = 1e-3
     max_behaviour_ticks: int = 0
@@ -185,7 +187,7 @@ class StnsConfig:
             "margin_plan": MARGIN_PLANS, "useless": USELESS, "r_break_forget": R_BREAK_FORGETS,
             "margin_stn": MARGIN_STNS, "miss_stop": MISS_STOPS, "no_plan": NO_PLANS,
             "explore_untried_stop": EXPLORE_UNTRIED_STOPS, "pending_r_try": PENDING_R_TRIES,
-            "pending_t_try": PENDING_T_TRIES,
+            "pending_t_try": PENDING_T_TRIES, "validity_check": VALIDITY_CHECKS,
         }
         for name, allowed in choices.items():
             value = getattr(self, name)

@@ -513,3 +513,27 @@ def test_contradiction_window_waits_for_a_change_point(window):
         assert valid[0][:6] == [True] * 6 and valid[1][:7] == [True] * 7
         assert lr._change_at == 5
     assert valid[2] == before
+
+
+# -- option validity_check (algorithm.md, "Readings") --------------------------------------
+
+@pytest.mark.parametrize("check", ["before_periodic", "also_after_periodic"])
+def test_validity_check_after_the_periodic_operations(check):
+    """Operation 5 eliminates R1 at the adjust interval; its child T2 is then inappropriate
+    (parent eliminated). The second check handles T2 in the same step; without it T2 stays
+    in the discrimination order, where a plan can use it, until the next step's check."""
+    interval = 6 + 40 + 1  # base() stores 6 records, 40 below, the add_record makes 47
+    lr, r1, t2 = base(adjust_interval=interval, validity_check=check)
+    inside = GOAL_PTS[0]
+    for k in range(40):  # every behaviour from R1 costs: its utility turns negative
+        lr.hist.append(inside, r1.id, k % 4, -1.0, inside, r1.id, False)
+    lr._version += 1
+    lr.add_record(inside, r1.id, 0, -1.0, inside, r1.id, False)
+    assert lr.hist.total == interval
+    assert r1.id not in lr.by_id
+    assert last(lr, "eliminated")["reason"].startswith(
+        "negative utility" if check == "before_periodic" else "parent_eliminated")
+    if check == "before_periodic":
+        assert [s.id for s in lr.order] == [t2.id] and lr._any_inappropriate()
+    else:
+        assert lr.order == []  # T2 eliminated: no behaviour was taken from it to recycle
